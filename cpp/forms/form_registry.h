@@ -1,0 +1,47 @@
+#pragma once
+
+#include <string>
+#include <ufcx.h>
+#include <vector>
+
+/// The table of FFCx-generated code (forms/compile_forms.py writes the .cpp).
+namespace muscle::forms
+{
+
+/// Finite-element kernels of one material model on one element type.
+struct FeVariant
+{
+  const char* model;  ///< ble, wkm, giant, combi, ble_passive, ehret_passive, neohooke
+  const char* cell;   ///< hexahedron or tetrahedron
+  int degree;         ///< Lagrange degree of the displacement
+  int quadrature_degree;
+  ufcx_form* residual;
+  ufcx_form* jacobian;
+  ufcx_form* volume; ///< functional: current volume
+  ufcx_function_space* (*function_space)(const char*); ///< spaces by coefficient name
+  ufcx_expression* fibre_stretch; ///< at quadrature points (kernel input), or null
+  ufcx_expression* post; ///< [lambda, sigma_m, von Mises, J] at quadrature points
+};
+
+/// Energy, stress and tangent of a model at a cell-wise constant displacement
+/// gradient H: the material-point view of the same UFL.
+struct MaterialPointVariant
+{
+  const char* model;
+  ufcx_expression* energy;
+  ufcx_expression* stress;  ///< P = dPsi/dH (WKM: omega_a held fixed)
+  ufcx_expression* tangent; ///< dP/dH, omega_a's dependence on lambda included
+  ufcx_expression* fibre_stretch;
+};
+
+const std::vector<FeVariant>& fe_variants();
+const std::vector<MaterialPointVariant>& material_point_variants();
+
+/// Look up a compiled variant; InputError listing what is available otherwise.
+/// quadrature_degree < 0 selects the default for the element.
+const FeVariant& find_fe_variant(const std::string& model,
+                                 const std::string& cell, int degree,
+                                 int quadrature_degree = -1);
+const MaterialPointVariant& find_material_point_variant(const std::string& model);
+
+} // namespace muscle::forms

@@ -1,0 +1,45 @@
+#pragma once
+
+#include "ehret_uniaxial.h"
+
+namespace muscle
+{
+
+/// omega_a and its derivatives with respect to the fibre stretch, at one point.
+struct OmegaTaylor
+{
+  double value = 0; ///< omega_a
+  double d1 = 0;    ///< d omega_a / d lambda
+  double d2 = 0;    ///< d^2 omega_a / d lambda^2
+  int iterations = 0;
+  bool ok = true; ///< false: no admissible root (domain error, reported upward)
+};
+
+/// WKM (paper eq. wa): omega_a = W_0(chi*)/(alpha l^2) - I_p'/(2 l).
+///
+/// With y = alpha l I_p'/2 the principal-branch root W = W_0(chi*) is written as
+/// W = y + z, and z = alpha l^2 omega_a solves the well-conditioned equation
+///   (y + z) e^z = y + Q,   Q = (2 alpha l/gamma) P_act e^{alpha(1 - w0/l) - y},
+/// on the W_0 branch (y + z >= -1), bracketed and solved by Newton.  This avoids
+/// the overflow of e^y in chi* and the cancellation in W - y; the value equals
+/// boost::math::lambert_w0(chi*) - y where that is representable (tested).
+///
+/// `level` is P_opt x time factor x element scale [kPa]; P_act = level f_xi(l).
+/// omega_a = 0 when P_act = 0, as in the paper: for very short fibres
+/// (y < -1) the principal branch would otherwise return a non-zero root.
+/// d1 comes from the implicit-function theorem; WKM's tangent needs no d2.
+OmegaTaylor wkm_omega(double stretch, double level, const EhretParameters& p);
+
+/// GIANT (paper eq. waimplicit, uniaxial form in ERRATA.md): with
+/// m = l/(1 - omega_a) the elastic fibre stretch,
+///   Psi_uni(m) = Psi_uni(l) + level int_{lambda_min}^{l} f_xi.
+///
+/// Root selection: the root with m >= max(1, l), i.e. omega_a in
+/// [max(0, 1 - l), 1): the contractile part shortens and the elastic part is
+/// stretched.  When the right-hand side's active energy is zero, omega_a = 0
+/// (F_a = I), so for fibres already shorter than 1 omega_a jumps at activation
+/// onset from 0 to the stretched-elastic root; this choice is deliberate
+/// (ERRATA.md) and tested.  d1 and d2 come from implicit differentiation.
+OmegaTaylor giant_omega(double stretch, double level, const EhretParameters& p);
+
+} // namespace muscle
