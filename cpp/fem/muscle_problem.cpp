@@ -1,0 +1,249 @@
+#include "muscle_problem.h"
+
+#include "../common/errors.h"
+#include "../forms/form_registry.h"
+#include "../material/material_point.h"
+
+#include <basix/finite-element.h>
+#include <basix/quadrature.h>
+#include <cmath>
+#include <dolfinx/fem/assembler.h>
+#include <dolfinx/fem/utils.h>
+#include <dolfinx/mesh/cell_types.h>
+#include <xtensor/xtensor.hpp>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+namespace
+{
+std::string passive_kernels(Model model)
+{
+  return model == Model::ble ? "ble_passive" : "ehret_passive";
+}
+
+std::int32_t num_local_cells(const mesh::Mesh& mesh, bool with_ghosts)
+{
+  auto map = mesh.topology().index_map(mesh.topology().dim());
+  return map->size_local() + (with_ghosts ? map->num_ghosts() : 0);
+}
+
+std::vector<std::int32_t> local_cells(const mesh::Mesh& mesh, bool with_ghosts)
+{
+  std::vector<std::int32_t> cells(num_local_cells(mesh, with_ghosts));
+  std::iota(cells.begin(), cells.end(), 0);
+  return cells;
+}
+} // namespace
+
+MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
+                             const ParameterSet& parameters,
+                             Discretisation discretisation, bool passive)
+    : _mesh(mesh), _parameters(parameters), _passive(passive),
+      _kernels(passive ? passive_kernels(parameters.model())
+                       : to_string(parameters.model()))
+{
+  const std::string cell = mesh::to_string(mesh->topology().cell_type());
+  _variant = &forms::find_fe_variant(_kernels, cell, discretisation.degree,
+                                     discretisation.quadrature_degree);
+  const forms::FeVariant& v = *_variant;
+
+  _V = std::make_shared<fem::FunctionSpace>(
+      fem::create_functionspace(v.function_space, "u", mesh));
+  _u = std::make_shared<fem::Function<double>>(_V);
+  _u->name = "displacement";
+  _fibre = std::make_shared<fem::Function<double>>(cell_space(3));
+  _fibre->name = "fibre";
+  _scale = std::make_shared<fem::Function<double>>(cell_space(1));
+  _scale->name = "activation_scale";
+  std::fill(_scale->x()->mutable_array().begin(),
+            _scale->x()->mutable_array().end(), 1.0);
+  set_fibre({0, 0, 1});
+
+  std::map<std::string, std::shared_ptr<const fem::Function<double>>> coefficients
+      = {{"u", _u}, {"fibre", _fibre}, {"activation_scale", _scale}};
+  for (const std::string& name : fem::get_coefficient_names(*v.residual))
+  {
+    if (name.rfind("omega_a", 0) == 0 or name.rfind("domega_a", 0) == 0
+        or name.rfind("d2omega_a", 0) == 0)
+    {
+      auto Q = std::make_shared<fem::FunctionSpace>(
+          fem::create_functionspace(v.function_space, name, mesh));
+      _taylor[name] = std::make_shared<fem::Function<double>>(Q);
+      coefficients[name] = _taylor[name];
+    }
+  }
+
+  std::map<std::string, std::shared_ptr<const fem::Constant<double>>> constants;
+  for (const std::string& name : parameters.names())
+  {
+    _constants[name] = std::make_shared<fem::Constant<double>>(parameters[name]);
+    constants[name] = _constants[name];
+  }
+  _constants["time_factor"] = std::make_shared<fem::Constant<double>>(0.0);
+  constants["time_factor"] = _constants["time_factor"];
+
+  _residual = std::make_shared<fem::Form<double>>(
+      fem::create_form<double>(*v.residual, {_V}, coefficients, constants, {}));
+  _jacobian = std::make_shared<fem::Form<double>>(
+      fem::create_form<double>(*v.jacobian, {_V, _V}, coefficients, constants, {}));
+  _volume = std::make_shared<fem::Form<double>>(
+      fem::create_form<double>(*v.volume, {}, coefficients, constants, {}, mesh));
+  if (v.fibre_stretch)
+  {
+    _stretch_expression = std::make_shared<fem::Expression<double>>(
+        fem::create_expression<double>(*v.fibre_stretch, coefficients, constants,
+                                       mesh));
+  }
+  _post_expression = std::make_shared<fem::Expression<double>>(
+      fem::create_expression<double>(*v.post, coefficients, constants, mesh));
+
+  const auto cell_type = mesh::cell_type_to_basix_type(mesh->topology().cell_type());
+  _quadrature_weights = basix::quadrature::make_quadrature(
+      cell_type, v.quadrature_degree)[1];
+}
+
+int MuscleProblem::quadrature_degree() const
+{
+  return _variant->quadrature_degree;
+}
+
+std::shared_ptr<fem::FunctionSpace> MuscleProblem::cell_space(int block_size) const
+{
+  const auto cell_type = mesh::cell_type_to_basix_type(_mesh->topology().cell_type());
+  const basix::FiniteElement e = basix::create_element(
+      basix::element::family::P, cell_type, 0,
+      basix::element::lagrange_variant::equispaced, true);
+  return std::make_shared<fem::FunctionSpace>(
+      fem::create_functionspace(_mesh, e, block_size));
+}
+
+void MuscleProblem::set_fibre(std::array<double, 3> d)
+{
+  const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  if (!(n > 0))
+    throw InputError("fibre direction must be a non-zero vector");
+  std::span<double> x = _fibre->x()->mutable_array();
+  for (std::size_t i = 0; i < x.size(); ++i)
+    x[i] = d[i % 3] / n;
+}
+
+void MuscleProblem::set_time_factor(double factor)
+{
+  _time_factor = _passive ? 0.0 : factor;
+  _constants.at("time_factor")->value = {_time_factor};
+}
+
+KernelStatus MuscleProblem::update_activation()
+{
+  KernelStatus status;
+  if (_taylor.empty())
+    return status;
+
+  // fibre stretch at the quadrature points of owned and ghost cells: every
+  // rank evaluates its ghosts itself, so no communication is needed
+  const std::vector<std::int32_t> cells = local_cells(*_mesh, true);
+  const std::size_t nq = _quadrature_weights.size();
+  xt::xtensor<double, 2> stretch({cells.size(), nq});
+  _stretch_expression->eval(std::span<const std::int32_t>(cells), stretch);
+
+  const Model model = _parameters.model();
+  const EhretParameters p = ehret_parameters(_parameters);
+  const auto& dofmap = *_taylor.begin()->second->function_space()->dofmap();
+  const auto& scale_dofmap = *_scale->function_space()->dofmap();
+  std::span<const double> scale = _scale->x()->array();
+  auto get = [&](const char* name) -> std::span<double>
+  {
+    auto it = _taylor.find(name);
+    return it == _taylor.end() ? std::span<double>()
+                               : it->second->x()->mutable_array();
+  };
+  std::span<double> lambda0 = get("omega_a_lambda"), w0 = get("omega_a"),
+                    w1 = get("domega_a"), w2 = get("d2omega_a");
+
+  for (std::size_t c = 0; c < cells.size(); ++c)
+  {
+    const double level = activation_level(
+        _parameters, _time_factor, scale[scale_dofmap.cell_dofs(c)[0]]);
+    auto dofs = dofmap.cell_dofs(c);
+    for (std::size_t q = 0; q < nq; ++q)
+    {
+      const double l = stretch(c, q);
+      const OmegaTaylor w = activation_kernel(model, l, level, p);
+      if (!w.ok)
+      {
+        if (status.failures++ == 0)
+        {
+          status.worst_cell = c;
+          status.stretch = l;
+        }
+      }
+      const std::int32_t d = dofs[q];
+      lambda0[d] = l;
+      w0[d] = w.value;
+      w1[d] = w.d1;
+      if (!w2.empty())
+        w2[d] = w.d2;
+    }
+  }
+  return status;
+}
+
+double MuscleProblem::volume() const
+{
+  const double local = fem::assemble_scalar(*_volume);
+  double total = 0;
+  MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, _mesh->comm());
+  return total;
+}
+
+MuscleProblem::PostFields MuscleProblem::post_fields() const
+{
+  const std::vector<std::int32_t> cells = local_cells(*_mesh, false);
+  const std::size_t nq = _quadrature_weights.size();
+  xt::xtensor<double, 2> values({cells.size(), 4 * nq});
+  _post_expression->eval(std::span<const std::int32_t>(cells), values);
+
+  PostFields out;
+  const char* names[] = {"fibre_stretch", "fibre_cauchy_stress", "von_mises_stress", "J"};
+  std::shared_ptr<fem::Function<double>>* fields[]
+      = {&out.fibre_stretch, &out.fibre_stress, &out.von_mises, &out.J};
+  const double weight_sum = std::accumulate(_quadrature_weights.begin(),
+                                            _quadrature_weights.end(), 0.0);
+  auto space = cell_space(1);
+  for (int k = 0; k < 4; ++k)
+  {
+    *fields[k] = std::make_shared<fem::Function<double>>(space);
+    (*fields[k])->name = names[k];
+    std::span<double> x = (*fields[k])->x()->mutable_array();
+    for (std::size_t c = 0; c < cells.size(); ++c)
+    {
+      double average = 0;
+      for (std::size_t q = 0; q < nq; ++q)
+        average += _quadrature_weights[q] * values(c, 4 * q + k);
+      x[space->dofmap()->cell_dofs(c)[0]] = average / weight_sum;
+    }
+    (*fields[k])->x()->scatter_fwd();
+  }
+  return out;
+}
+
+std::pair<double, std::int32_t> MuscleProblem::min_jacobian_determinant() const
+{
+  const std::vector<std::int32_t> cells = local_cells(*_mesh, false);
+  const std::size_t nq = _quadrature_weights.size();
+  xt::xtensor<double, 2> values({cells.size(), 4 * nq});
+  _post_expression->eval(std::span<const std::int32_t>(cells), values);
+  std::pair<double, std::int32_t> worst{std::numeric_limits<double>::infinity(), -1};
+  for (std::size_t c = 0; c < cells.size(); ++c)
+    for (std::size_t q = 0; q < nq; ++q)
+    {
+      const double J = values(c, 4 * q + 3);
+      if (!(J >= worst.first)) // NaN counts as worst
+        worst = {J, static_cast<std::int32_t>(c)};
+    }
+  return worst;
+}
+
+} // namespace muscle

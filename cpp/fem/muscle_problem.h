@@ -1,0 +1,120 @@
+#pragma once
+
+#include "../material/parameters.h"
+
+#include <array>
+#include <dolfinx/fem/Constant.h>
+#include <dolfinx/fem/Expression.h>
+#include <dolfinx/fem/Form.h>
+#include <dolfinx/fem/Function.h>
+#include <dolfinx/fem/FunctionSpace.h>
+#include <dolfinx/mesh/Mesh.h>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace muscle
+{
+namespace forms
+{
+struct FeVariant;
+}
+
+/// Element choice of a discretisation.
+struct Discretisation
+{
+  int degree = 1;             ///< Lagrange degree of the displacement
+  int quadrature_degree = -1; ///< -1: the default for the element
+};
+
+/// Outcome of evaluating the quadrature-point activation kernels.
+struct KernelStatus
+{
+  std::int64_t failures = 0;  ///< points without an admissible root
+  std::int32_t worst_cell = -1; ///< a local cell where it failed
+  double stretch = 0;         ///< fibre stretch there
+  bool ok() const { return failures == 0; }
+};
+
+/// One muscle body: displacement space, material forms (residual, Jacobian,
+/// volume), fibre and activation-scale fields, and -- for WKM and GIANT -- the
+/// quadrature-point activation kernel that feeds omega_a to the forms.
+///
+/// Only what the material needs is built: a passive body uses the passive-only
+/// forms (no activation terms, no kernel), BLE and COMBI never call a kernel.
+class MuscleProblem
+{
+public:
+  /// `passive`: build the passive-only forms (ble_passive / ehret_passive).
+  MuscleProblem(std::shared_ptr<dolfinx::mesh::Mesh> mesh,
+                const ParameterSet& parameters, Discretisation discretisation,
+                bool passive = false);
+
+  const ParameterSet& parameters() const { return _parameters; }
+  bool passive() const { return _passive; }
+  const std::string& kernel_name() const { return _kernels; }
+  int quadrature_degree() const;
+
+  std::shared_ptr<dolfinx::mesh::Mesh> mesh() const { return _mesh; }
+  std::shared_ptr<dolfinx::fem::FunctionSpace> V() const { return _V; }
+  std::shared_ptr<dolfinx::fem::Function<double>> u() const { return _u; }
+  /// Element-wise unit fibre direction (DG0 vector).
+  std::shared_ptr<dolfinx::fem::Function<double>> fibre() const { return _fibre; }
+  /// Element-wise scale of the activation (DG0), 1 by default.
+  std::shared_ptr<dolfinx::fem::Function<double>> activation_scale() const
+  {
+    return _scale;
+  }
+
+  /// Same fibre direction everywhere (normalised here).
+  void set_fibre(std::array<double, 3> direction);
+
+  /// Dimensionless activation in time (1: tetanic level).
+  void set_time_factor(double factor);
+  double time_factor() const { return _time_factor; }
+
+  /// Update omega_a at every quadrature point from the current u (WKM, GIANT);
+  /// a no-op for the other models.
+  KernelStatus update_activation();
+  bool has_activation_kernel() const { return !_taylor.empty(); }
+
+  std::shared_ptr<const dolfinx::fem::Form<double>> residual() const { return _residual; }
+  std::shared_ptr<const dolfinx::fem::Form<double>> jacobian() const { return _jacobian; }
+
+  /// Current volume of the body.
+  double volume() const;
+
+  /// Cell averages (reference quadrature weights) of the fibre stretch,
+  /// Cauchy fibre stress sigma_m, von Mises stress and J, as DG0 functions.
+  struct PostFields
+  {
+    std::shared_ptr<dolfinx::fem::Function<double>> fibre_stretch, fibre_stress,
+        von_mises, J;
+  };
+  PostFields post_fields() const;
+
+  /// Smallest J over all quadrature points of the local cells, and where.
+  std::pair<double, std::int32_t> min_jacobian_determinant() const;
+
+  /// DG0 scalar space on this mesh.
+  std::shared_ptr<dolfinx::fem::FunctionSpace> cell_space(int block_size = 1) const;
+
+private:
+  std::shared_ptr<dolfinx::mesh::Mesh> _mesh;
+  ParameterSet _parameters;
+  bool _passive;
+  std::string _kernels;
+  const forms::FeVariant* _variant;
+  double _time_factor = 0;
+
+  std::shared_ptr<dolfinx::fem::FunctionSpace> _V;
+  std::shared_ptr<dolfinx::fem::Function<double>> _u, _fibre, _scale;
+  std::map<std::string, std::shared_ptr<dolfinx::fem::Function<double>>> _taylor;
+  std::map<std::string, std::shared_ptr<dolfinx::fem::Constant<double>>> _constants;
+  std::shared_ptr<dolfinx::fem::Form<double>> _residual, _jacobian, _volume;
+  std::shared_ptr<dolfinx::fem::Expression<double>> _stretch_expression, _post_expression;
+  std::vector<double> _quadrature_weights;
+};
+
+} // namespace muscle

@@ -1,0 +1,258 @@
+#include "nonlinear_solver.h"
+
+#include "uniform_constraint.h"
+
+#include <cmath>
+#include <limits>
+#include <dolfinx/fem/assembler.h>
+#include <dolfinx/fem/petsc.h>
+#include <dolfinx/la/petsc.h>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+namespace
+{
+/// Rigid-body modes of a 3-D displacement space, for GAMG.
+MatNullSpace rigid_body_modes(const fem::FunctionSpace& V)
+{
+  auto map = V.dofmap()->index_map;
+  const int bs = V.dofmap()->index_map_bs();
+  const std::int32_t n = map->size_local();
+  std::vector<la::Vector<double>> basis(6, la::Vector<double>(map, bs));
+  const std::vector<double> x = V.tabulate_dof_coordinates(false);
+  for (std::int32_t i = 0; i < n; ++i)
+  {
+    const double* p = x.data() + 3 * i;
+    for (int k = 0; k < 3; ++k)
+      basis[k].mutable_array()[3 * i + k] = 1;
+    // rotations about e3, e1, e2
+    basis[3].mutable_array()[3 * i + 0] = -p[1];
+    basis[3].mutable_array()[3 * i + 1] = p[0];
+    basis[4].mutable_array()[3 * i + 1] = -p[2];
+    basis[4].mutable_array()[3 * i + 2] = p[1];
+    basis[5].mutable_array()[3 * i + 0] = p[2];
+    basis[5].mutable_array()[3 * i + 2] = -p[0];
+  }
+  la::orthonormalize(std::span<la::Vector<double>>(basis));
+  std::vector<Vec> vecs;
+  for (auto& b : basis)
+    vecs.push_back(la::petsc::create_vector_wrap(b));
+  MatNullSpace ns;
+  MatNullSpaceCreate(map->comm(), PETSC_FALSE, 6, vecs.data(), &ns);
+  for (Vec& v : vecs)
+    VecDestroy(&v);
+  return ns;
+}
+} // namespace
+
+NonlinearSolver::NonlinearSolver(
+    MuscleProblem& problem,
+    std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs,
+    std::shared_ptr<const UniformDisplacementConstraint> constraint,
+    NewtonOptions options)
+    : _problem(problem), _bcs(std::move(bcs)), _constraint(std::move(constraint)),
+      _options(std::move(options)),
+      _b(problem.V()->dofmap()->index_map, problem.V()->dofmap()->index_map_bs())
+{
+  auto V = problem.V();
+  auto map = V->dofmap()->index_map;
+  const int bs = V->dofmap()->index_map_bs();
+  MPI_Comm comm = map->comm();
+
+  _A = fem::petsc::create_matrix(*problem.jacobian(), "aij");
+  _b_petsc = la::petsc::create_vector_wrap(_b);
+  VecCreateMPIWithArray(comm, 1, bs * map->size_local(), PETSC_DETERMINE,
+                        _b.mutable_array().data(), &_F_full);
+
+  SNESCreate(comm, &_snes);
+  Vec F;
+  Mat J = _A;
+  if (_constraint)
+  {
+    _x = _constraint->create_reduced_vector();
+    VecDuplicate(_x, &F);
+    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
+    J = _A_red;
+  }
+  else
+  {
+    _x = la::petsc::create_vector_wrap(*problem.u()->x());
+    VecDuplicate(_b_petsc, &F);
+  }
+  SNESSetFunction(_snes, F, residual_callback, this);
+  VecDestroy(&F);
+  SNESSetJacobian(_snes, J, J, jacobian_callback, this);
+
+  SNESSetType(_snes, SNESNEWTONLS);
+  SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0,
+                    _options.max_iterations, 10000);
+  SNESLineSearch ls;
+  SNESGetLineSearch(_snes, &ls);
+  SNESLineSearchSetType(ls, _options.line_search.c_str());
+  KSP ksp;
+  SNESGetKSP(_snes, &ksp);
+  PC pc;
+  KSPGetPC(ksp, &pc);
+  if (_options.linear_solver == "lu")
+  {
+    KSPSetType(ksp, KSPPREONLY);
+    PCSetType(pc, PCLU);
+    PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+  }
+  else
+  {
+    KSPSetType(ksp, KSPGMRES);
+    KSPSetTolerances(ksp, 1e-10, 1e-14, PETSC_DEFAULT, 2000);
+    KSPGMRESSetRestart(ksp, 200);
+    if (_options.linear_solver == "gmres-hypre")
+    {
+      PCSetType(pc, PCHYPRE);
+      PCHYPRESetType(pc, "boomeramg");
+    }
+    else
+    {
+      PCSetType(pc, PCGAMG);
+      if (!_constraint)
+      {
+        MatNullSpace ns = rigid_body_modes(*V);
+        MatSetNearNullSpace(_A, ns);
+        MatNullSpaceDestroy(&ns);
+      }
+      MatSetBlockSize(_A, 3);
+    }
+  }
+  SNESSetConvergenceHistory(_snes, nullptr, nullptr, 1000, PETSC_TRUE);
+  SNESSetConvergenceTest(_snes, convergence_test, this, nullptr);
+  SNESSetFromOptions(_snes);
+}
+
+NonlinearSolver::~NonlinearSolver()
+{
+  SNESDestroy(&_snes);
+  MatDestroy(&_A);
+  if (_A_red)
+    MatDestroy(&_A_red);
+  VecDestroy(&_x);
+  VecDestroy(&_b_petsc);
+  VecDestroy(&_F_full);
+}
+
+Mat NonlinearSolver::system_matrix() const { return _constraint ? _A_red : _A; }
+
+void NonlinearSolver::set_state(Vec x)
+{
+  auto u = _problem.u();
+  if (_constraint)
+    _constraint->prolong(x, *u->x());
+  else
+  {
+    if (x != _x)
+      VecCopy(x, _x);
+    u->x()->scatter_fwd();
+  }
+  _last_kernel = _problem.update_activation();
+}
+
+void NonlinearSolver::assemble_nodal_forces(la::Vector<double>& b) const
+{
+  std::fill(b.mutable_array().begin(), b.mutable_array().end(), 0.0);
+  fem::assemble_vector<double>(b.mutable_array(), *_problem.residual());
+  b.scatter_rev(std::plus<double>());
+  b.scatter_fwd();
+}
+
+PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void* ctx)
+{
+  auto* self = static_cast<NonlinearSolver*>(ctx);
+  self->set_state(x);
+  std::span<double> b = self->_b.mutable_array();
+  std::fill(b.begin(), b.end(), 0.0);
+  fem::assemble_vector<double>(b, *self->_problem.residual());
+  std::span<const double> u = self->_problem.u()->x()->array();
+  fem::apply_lifting<double>(b, {self->_problem.jacobian()}, {self->_bcs}, {u}, -1.0);
+  self->_b.scatter_rev(std::plus<double>());
+  fem::set_bc<double>(b, self->_bcs, u, -1.0);
+
+  if (self->_constraint)
+    MatMultTranspose(self->_constraint->T(), self->_F_full, F);
+  else
+    VecCopy(self->_b_petsc, F);
+
+  PetscReal norm;
+  VecNorm(F, NORM_2, &norm);
+  if (!std::isfinite(norm) or !self->_last_kernel.ok())
+  {
+    self->_non_finite = self->_non_finite or !std::isfinite(norm);
+    SNESSetFunctionDomainError(snes);
+  }
+  return 0;
+}
+
+PetscErrorCode NonlinearSolver::jacobian_callback(SNES, Vec x, Mat J, Mat, void* ctx)
+{
+  auto* self = static_cast<NonlinearSolver*>(ctx);
+  self->set_state(x);
+  Mat A = self->_A;
+  MatZeroEntries(A);
+  fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES),
+                       *self->_problem.jacobian(), self->_bcs);
+  MatAssemblyBegin(A, MAT_FLUSH_ASSEMBLY);
+  MatAssemblyEnd(A, MAT_FLUSH_ASSEMBLY);
+  fem::set_diagonal<double>(la::petsc::Matrix::set_fn(A, INSERT_VALUES),
+                            *self->_problem.V(), self->_bcs);
+  MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
+  MatNorm(A, NORM_INFINITY, &self->_matrix_norm);
+  if (self->_constraint)
+    MatPtAP(A, self->_constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
+  return 0;
+}
+
+PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
+                                                 PetscReal xnorm, PetscReal ynorm,
+                                                 PetscReal fnorm,
+                                                 SNESConvergedReason* reason,
+                                                 void* ctx)
+{
+  SNESConvergedDefault(snes, it, xnorm, ynorm, fnorm, reason, nullptr);
+  auto* self = static_cast<NonlinearSolver*>(ctx);
+  // A residual cannot be computed more accurately than round-off in the
+  // largest element forces, eps |J| |x|; with a stiff penalty that floor can
+  // lie above any fixed atol, and Newton would stagnate there.
+  const double floor
+      = 100 * std::numeric_limits<double>::epsilon() * self->_matrix_norm * xnorm;
+  if (*reason == SNES_CONVERGED_ITERATING and fnorm <= floor)
+    *reason = SNES_CONVERGED_FNORM_ABS;
+  return 0;
+}
+
+NewtonReport NonlinearSolver::solve()
+{
+  NewtonReport report;
+  _non_finite = false;
+  if (_constraint)
+    _constraint->restrict_to(*_problem.u()->x(), _x);
+  SNESSolve(_snes, nullptr, _x);
+  set_state(_x); // leave u (and omega_a) at the final iterate
+
+  SNESConvergedReason reason;
+  SNESGetConvergedReason(_snes, &reason);
+  report.converged = reason > 0;
+  report.reason = SNESConvergedReasons[reason];
+  PetscInt its, lits;
+  SNESGetIterationNumber(_snes, &its);
+  SNESGetLinearSolveIterations(_snes, &lits);
+  report.iterations = its;
+  report.linear_iterations = lits;
+  PetscReal* history;
+  PetscInt n;
+  SNESGetConvergenceHistory(_snes, &history, nullptr, &n);
+  report.residual_norms.assign(history, history + n);
+  report.kernel = _last_kernel;
+  report.non_finite = _non_finite;
+  return report;
+}
+
+} // namespace muscle

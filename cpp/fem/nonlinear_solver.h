@@ -1,0 +1,94 @@
+#pragma once
+
+#include "muscle_problem.h"
+
+#include <dolfinx/fem/DirichletBC.h>
+#include <dolfinx/la/Vector.h>
+#include <memory>
+#include <petscsnes.h>
+#include <string>
+#include <vector>
+
+namespace muscle
+{
+class UniformDisplacementConstraint;
+
+/// Newton settings; PETSc command-line options (-snes_*, -ksp_*, -pc_*)
+/// override them.
+struct NewtonOptions
+{
+  double rtol = 1e-9;  ///< relative residual reduction
+  double atol = 1e-10; ///< absolute residual norm [mN]
+  int max_iterations = 25;
+  /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG) or "gmres-gamg" (with the rigid-body
+  /// near-null space)
+  std::string linear_solver = "lu";
+  std::string line_search = "bt";
+};
+
+/// What one nonlinear solve did.
+struct NewtonReport
+{
+  bool converged = false;
+  int iterations = 0;
+  int linear_iterations = 0;
+  std::string reason;                 ///< PETSc's converged/diverged reason
+  std::vector<double> residual_norms; ///< one per Newton iteration, first = initial
+  KernelStatus kernel;                ///< activation kernel at the last evaluation
+  bool non_finite = false;            ///< a residual evaluation produced NaN/inf
+};
+
+/// Newton's method (PETSc SNES) for the muscle residual with Dirichlet
+/// conditions and, optionally, a uniform-displacement constraint.  The
+/// residual callback refreshes the quadrature-point activation kernels at the
+/// evaluation point, so the tangent is exact at every iterate.  A non-finite
+/// residual or a kernel without admissible root is reported to SNES as a
+/// domain error (the line search then backtracks).
+class NonlinearSolver
+{
+public:
+  NonlinearSolver(MuscleProblem& problem,
+                  std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> bcs,
+                  std::shared_ptr<const UniformDisplacementConstraint> constraint = nullptr,
+                  NewtonOptions options = {});
+  ~NonlinearSolver();
+  NonlinearSolver(const NonlinearSolver&) = delete;
+  NonlinearSolver& operator=(const NonlinearSolver&) = delete;
+
+  /// Solve from the current displacement; on failure u holds the last iterate
+  /// (callers restore their own copy).
+  NewtonReport solve();
+
+  /// The last assembled system matrix (reduced if constrained).
+  Mat system_matrix() const;
+
+  /// Assemble the residual without boundary conditions into `b` (owned +
+  /// ghost entries, ghosts accumulated): nodal forces, e.g. reactions.
+  void assemble_nodal_forces(dolfinx::la::Vector<double>& b) const;
+
+private:
+  static PetscErrorCode residual_callback(SNES, Vec x, Vec F, void* ctx);
+  static PetscErrorCode jacobian_callback(SNES, Vec x, Mat J, Mat P, void* ctx);
+  static PetscErrorCode convergence_test(SNES, PetscInt it, PetscReal xnorm,
+                                         PetscReal ynorm, PetscReal fnorm,
+                                         SNESConvergedReason* reason, void* ctx);
+  void set_state(Vec x);
+
+  MuscleProblem& _problem;
+  std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> _bcs;
+  std::shared_ptr<const UniformDisplacementConstraint> _constraint;
+  NewtonOptions _options;
+
+  SNES _snes = nullptr;
+  Mat _A = nullptr;       ///< full Jacobian
+  Mat _A_red = nullptr;   ///< T^T A T when constrained
+  Vec _x = nullptr;       ///< SNES unknown (wraps u, or the reduced vector)
+  Vec _b_petsc = nullptr; ///< wraps _b (full residual)
+  Vec _F_full = nullptr;  ///< owned part of _b as a plain vector (for T^T b)
+  dolfinx::la::Vector<double> _b;
+  KernelStatus _last_kernel;
+  double _matrix_norm = 0; ///< infinity norm of the last Jacobian
+  bool _non_finite = false;
+};
+
+} // namespace muscle
