@@ -91,11 +91,17 @@ std::vector<ParameterSpec> ehret_specs(Model model)
   return s;
 }
 
+/// Shortest representation that reads back to the same double.
 std::string format_value(double v)
 {
-  std::ostringstream s;
-  s << std::setprecision(17) << v;
-  return s.str();
+  for (int digits = 6; digits <= 17; ++digits)
+  {
+    std::ostringstream s;
+    s << std::setprecision(digits) << v;
+    if (std::stod(s.str()) == v)
+      return s.str();
+  }
+  return std::to_string(v);
 }
 
 } // namespace

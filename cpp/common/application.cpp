@@ -1,0 +1,131 @@
+#include "application.h"
+
+#include "errors.h"
+
+#include <cctype>
+#include <cmath>
+#include <dolfinx/common/log.h>
+#include <iostream>
+#include <mpi.h>
+#include <petscsys.h>
+
+namespace muscle
+{
+
+bool is_root()
+{
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  return rank == 0;
+}
+
+std::vector<std::string> split_petsc_options(int argc, char** argv,
+                                             std::vector<std::string>* petsc)
+{
+  std::vector<std::string> own;
+  auto is_petsc_name = [](const std::string& a)
+  {
+    return a.size() > 2 and a[0] == '-' and a[1] != '-'
+           and std::isalpha(static_cast<unsigned char>(a[1]))
+           and std::isalpha(static_cast<unsigned char>(a[2]));
+  };
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string a = argv[i];
+    if (!is_petsc_name(a))
+    {
+      own.push_back(a);
+      continue;
+    }
+    if (petsc)
+      petsc->push_back(a);
+    // a value follows unless the next word is an option itself
+    if (i + 1 < argc)
+    {
+      const std::string next = argv[i + 1];
+      const bool option = next.size() > 1 and next[0] == '-'
+                          and !std::isdigit(static_cast<unsigned char>(next[1]))
+                          and next[1] != '.';
+      if (!option)
+      {
+        if (petsc)
+          petsc->push_back(next);
+        ++i;
+      }
+    }
+  }
+  return own;
+}
+
+std::vector<double> parse_range(const std::string& text, const std::string& what)
+{
+  const std::string usage = what + " '" + text
+                            + "': expected START:STOP:COUNT, e.g. 0.7:1.3:13";
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  for (std::size_t pos; (pos = text.find(':', start)) != std::string::npos;
+       start = pos + 1)
+    parts.push_back(text.substr(start, pos - start));
+  parts.push_back(text.substr(start));
+  if (parts.size() != 3)
+    throw InputError(usage);
+  auto number = [&](const std::string& s, const char* name)
+  {
+    std::size_t used = 0;
+    double v = 0;
+    try
+    {
+      v = std::stod(s, &used);
+    }
+    catch (const std::exception&)
+    {
+      used = 0;
+    }
+    if (used == 0 or used != s.size() or !std::isfinite(v))
+      throw InputError(usage + " (" + name + " '" + s + "' is not a number)");
+    return v;
+  };
+  const double a = number(parts[0], "START"), b = number(parts[1], "STOP");
+  const double n = number(parts[2], "COUNT");
+  if (n < 1 or n != std::floor(n) or n > 100000)
+    throw InputError(usage + " (COUNT must be a whole number from 1 to 100000)");
+  std::vector<double> values;
+  const int count = static_cast<int>(n);
+  for (int i = 0; i < count; ++i)
+    values.push_back(count == 1 ? a : a + (b - a) * i / (count - 1));
+  return values;
+}
+
+int run_application(int argc, char** argv,
+                    const std::function<int(std::vector<std::string>)>& body)
+{
+  PetscInitialize(&argc, &argv, nullptr, nullptr);
+  loguru::g_stderr_verbosity = loguru::Verbosity_WARNING;
+  int status = exit_ok;
+  try
+  {
+    status = body(split_petsc_options(argc, argv));
+  }
+  catch (const InputError& e)
+  {
+    if (is_root())
+      std::cerr << "error: " << e.what() << std::endl;
+    status = exit_input_error;
+  }
+  catch (const SolveError& e)
+  {
+    if (is_root())
+      std::cerr << "solve failed: " << e.what() << std::endl;
+    status = exit_solve_error;
+  }
+  catch (const std::exception& e)
+  {
+    if (is_root())
+      std::cerr << "internal error: " << e.what() << std::endl;
+    status = exit_internal_error;
+  }
+  PetscFinalize();
+  return status;
+}
+
+} // namespace muscle

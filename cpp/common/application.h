@@ -1,0 +1,32 @@
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace muscle
+{
+
+/// Run a program: MPI and PETSc initialised, DOLFINx logging quiet (warnings
+/// only), and every error turned into one message on rank 0 and an exit status
+/// (InputError 2, SolveError 3, anything else 4).
+///
+/// `body` receives the arguments that are not PETSc options (see
+/// split_petsc_options); PETSc reads its own from the full command line.
+int run_application(int argc, char** argv,
+                    const std::function<int(std::vector<std::string>)>& body);
+
+/// Separate PETSc options (a single dash and a name of two or more
+/// characters, e.g. -snes_monitor or -ksp_type gmres, with a value if one
+/// follows) from the program's own arguments (--long options, -h).
+std::vector<std::string> split_petsc_options(int argc, char** argv,
+                                             std::vector<std::string>* petsc = nullptr);
+
+/// Is this the MPI rank that prints?
+bool is_root();
+
+/// START:STOP:COUNT -> COUNT equally spaced values (COUNT = 1 gives START).
+/// `what` names the option in error messages.
+std::vector<double> parse_range(const std::string& text, const std::string& what);
+
+} // namespace muscle
