@@ -67,6 +67,8 @@ def registry_source(fe_variants, models):
         lines.append(f'#include "{variants.variant_name(*v)}.h"')
     for m in models:
         lines.append(f'#include "mp_{m}.h"')
+    for c in variants.CELLS:
+        lines.append(f'#include "fibre_{c}.h"')
     lines += ["", "namespace muscle::forms", "{", "",
               "const std::vector<FeVariant>& fe_variants()", "{",
               "  static const std::vector<FeVariant> table = {"]
@@ -82,6 +84,12 @@ def registry_source(fe_variants, models):
     for m in models:
         lines.append(f'      {{"{m}", expression_mp_{m}_energy, expression_mp_{m}_stress, '
                      f'expression_mp_{m}_tangent, expression_mp_{m}_fibre_stretch}},')
+    lines += ["  };", "  return table;", "}", "",
+              "const std::vector<FibreVariant>& fibre_variants()", "{",
+              "  static const std::vector<FibreVariant> table = {"]
+    for c, name in variants.CELLS.items():
+        lines.append(f'      {{"{name}", form_fibre_{c}_laplace, form_fibre_{c}_rhs, '
+                     f'functionspace_form_fibre_{c}_laplace, expression_fibre_{c}_gradient}},')
     lines += ["  };", "  return table;", "}", "", "} // namespace muscle::forms", ""]
     return "\n".join(lines)
 
@@ -101,7 +109,8 @@ def main():
     mp_models = [m for m in variants.MODELS]
     outdir = pathlib.Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
-    prefixes = [variants.variant_name(*v) for v in fe] + [f"mp_{m}" for m in mp_models]
+    prefixes = ([variants.variant_name(*v) for v in fe] + [f"mp_{m}" for m in mp_models]
+                + [f"fibre_{c}" for c in variants.CELLS])
     if args.list:
         print(";".join(f"{p}.c" for p in prefixes))
         return
@@ -111,6 +120,8 @@ def main():
         compile_objects(variants.build_fe_variant(*v), variants.variant_name(*v), outdir, parameters)
     for m in mp_models:
         compile_objects(variants.build_material_point_variant(m), f"mp_{m}", outdir, parameters)
+    for c in variants.CELLS:
+        compile_objects(variants.build_fibre_variant(c), f"fibre_{c}", outdir, parameters)
     write_if_changed(outdir / "form_registry.cpp", registry_source(fe, mp_models))
 
 

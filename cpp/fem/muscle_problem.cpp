@@ -129,6 +129,34 @@ void MuscleProblem::set_fibre(std::array<double, 3> d)
     x[i] = d[i % 3] / n;
 }
 
+void MuscleProblem::set_fibre(const fem::Function<double>& fibre)
+{
+  std::span<const double> in = fibre.x()->array();
+  std::span<double> out = _fibre->x()->mutable_array();
+  if (in.size() != out.size())
+    throw std::logic_error("set_fibre: fibre field on a different space");
+  std::copy(in.begin(), in.end(), out.begin());
+}
+
+std::shared_ptr<fem::Form<double>> MuscleProblem::residual_on_cells(
+    std::shared_ptr<const mesh::MeshTags<std::int32_t>> cells, int value) const
+{
+  const ufcx_form& form = *_variant->residual;
+  if (form.num_integrals(cell) != 1)
+    throw std::logic_error("residual form: expected one cell integral");
+  ufcx_integral* integral = form.integrals(cell)[0];
+  using Kernel = std::function<void(double*, const double*, const double*,
+                                    const double*, const int*, const std::uint8_t*)>;
+  std::map<fem::IntegralType,
+           std::pair<std::vector<std::pair<int, Kernel>>, const mesh::MeshTags<int>*>>
+      integrals;
+  integrals[fem::IntegralType::cell]
+      = {{{value, integral->tabulate_tensor_float64}}, cells.get()};
+  return std::make_shared<fem::Form<double>>(
+      std::vector<std::shared_ptr<const fem::FunctionSpace>>{_V}, integrals,
+      _residual->coefficients(), _residual->constants(), false);
+}
+
 void MuscleProblem::set_time_factor(double factor)
 {
   _time_factor = _passive ? 0.0 : factor;

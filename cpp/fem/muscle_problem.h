@@ -82,6 +82,16 @@ public:
   std::shared_ptr<const dolfinx::fem::Form<double>> residual() const { return _residual; }
   std::shared_ptr<const dolfinx::fem::Form<double>> jacobian() const { return _jacobian; }
 
+  /// The residual assembled over the cells tagged `value` only (same kernel):
+  /// summing it over the nodes of an interface gives the force the rest of the
+  /// body transmits through it, the variationally consistent section force.
+  std::shared_ptr<dolfinx::fem::Form<double>>
+  residual_on_cells(std::shared_ptr<const dolfinx::mesh::MeshTags<std::int32_t>> cells,
+                    int value) const;
+
+  /// Copy an element-wise fibre field (same DG0 vector space as fibre()).
+  void set_fibre(const dolfinx::fem::Function<double>& fibre);
+
   /// Current volume of the body.
   double volume() const;
 

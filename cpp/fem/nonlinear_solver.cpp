@@ -73,12 +73,17 @@ NonlinearSolver::NonlinearSolver(
   {
     _x = _constraint->create_reduced_vector();
     VecDuplicate(_x, &F);
+    // P^T A P needs an assembled A for its symbolic phase
+    _problem.update_activation();
+    assemble_full_jacobian();
     MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
     J = _A_red;
   }
   else
   {
-    _x = la::petsc::create_vector_wrap(*problem.u()->x());
+    // SNES owns its iterate: the line search overwrites trial states in u
+    _u_petsc = la::petsc::create_vector_wrap(*problem.u()->x());
+    VecDuplicate(_u_petsc, &_x);
     VecDuplicate(_b_petsc, &F);
   }
   SNESSetFunction(_snes, F, residual_callback, this);
@@ -135,6 +140,8 @@ NonlinearSolver::~NonlinearSolver()
   if (_A_red)
     MatDestroy(&_A_red);
   VecDestroy(&_x);
+  if (_u_petsc)
+    VecDestroy(&_u_petsc);
   VecDestroy(&_b_petsc);
   VecDestroy(&_F_full);
 }
@@ -148,8 +155,7 @@ void NonlinearSolver::set_state(Vec x)
     _constraint->prolong(x, *u->x());
   else
   {
-    if (x != _x)
-      VecCopy(x, _x);
+    VecCopy(x, _u_petsc);
     u->x()->scatter_fwd();
   }
   _last_kernel = _problem.update_activation();
@@ -190,23 +196,28 @@ PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void*
   return 0;
 }
 
+void NonlinearSolver::assemble_full_jacobian()
+{
+  Mat A = _A;
+  MatZeroEntries(A);
+  fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES),
+                       *_problem.jacobian(), _bcs);
+  MatAssemblyBegin(A, MAT_FLUSH_ASSEMBLY);
+  MatAssemblyEnd(A, MAT_FLUSH_ASSEMBLY);
+  fem::set_diagonal<double>(la::petsc::Matrix::set_fn(A, INSERT_VALUES),
+                            *_problem.V(), _bcs);
+  MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
+  MatNorm(A, NORM_INFINITY, &_matrix_norm);
+}
+
 PetscErrorCode NonlinearSolver::jacobian_callback(SNES, Vec x, Mat J, Mat, void* ctx)
 {
   auto* self = static_cast<NonlinearSolver*>(ctx);
   self->set_state(x);
-  Mat A = self->_A;
-  MatZeroEntries(A);
-  fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES),
-                       *self->_problem.jacobian(), self->_bcs);
-  MatAssemblyBegin(A, MAT_FLUSH_ASSEMBLY);
-  MatAssemblyEnd(A, MAT_FLUSH_ASSEMBLY);
-  fem::set_diagonal<double>(la::petsc::Matrix::set_fn(A, INSERT_VALUES),
-                            *self->_problem.V(), self->_bcs);
-  MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
-  MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
-  MatNorm(A, NORM_INFINITY, &self->_matrix_norm);
+  self->assemble_full_jacobian();
   if (self->_constraint)
-    MatPtAP(A, self->_constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
+    MatPtAP(self->_A, self->_constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
   return 0;
 }
 
@@ -234,6 +245,8 @@ NewtonReport NonlinearSolver::solve()
   _non_finite = false;
   if (_constraint)
     _constraint->restrict_to(*_problem.u()->x(), _x);
+  else
+    VecCopy(_u_petsc, _x);
   SNESSolve(_snes, nullptr, _x);
   set_state(_x); // leave u (and omega_a) at the final iterate
 

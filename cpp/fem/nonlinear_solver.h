@@ -23,6 +23,11 @@ struct NewtonOptions
   /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG) or "gmres-gamg" (with the rigid-body
   /// near-null space)
   std::string linear_solver = "lu";
+  /// PETSc line search: "bt" (residual-norm backtracking) keeps full steps near
+  /// the solution (quadratic convergence, tested); "cp" minimises along the
+  /// direction with the residual as the energy gradient and is the better
+  /// choice where the residual norm is a poor merit function (the fusiform
+  /// muscle: bt needs ~10x more iterations there, see its --line-search).
   std::string line_search = "bt";
 };
 
@@ -69,6 +74,7 @@ public:
 private:
   static PetscErrorCode residual_callback(SNES, Vec x, Vec F, void* ctx);
   static PetscErrorCode jacobian_callback(SNES, Vec x, Mat J, Mat P, void* ctx);
+  void assemble_full_jacobian();
   static PetscErrorCode convergence_test(SNES, PetscInt it, PetscReal xnorm,
                                          PetscReal ynorm, PetscReal fnorm,
                                          SNESConvergedReason* reason, void* ctx);
@@ -82,7 +88,8 @@ private:
   SNES _snes = nullptr;
   Mat _A = nullptr;       ///< full Jacobian
   Mat _A_red = nullptr;   ///< T^T A T when constrained
-  Vec _x = nullptr;       ///< SNES unknown (wraps u, or the reduced vector)
+  Vec _x = nullptr;       ///< SNES iterate (a copy of u's owned part, or reduced)
+  Vec _u_petsc = nullptr; ///< wraps u's owned part (unconstrained case)
   Vec _b_petsc = nullptr; ///< wraps _b (full residual)
   Vec _F_full = nullptr;  ///< owned part of _b as a plain vector (for T^T b)
   dolfinx::la::Vector<double> _b;

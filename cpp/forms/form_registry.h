@@ -34,7 +34,19 @@ struct MaterialPointVariant
   ufcx_expression* fibre_stretch;
 };
 
+/// Laplace problem for fibre directions (fusiform: potential 0 on the
+/// origin, 1 on the insertion; fibres along its gradient).
+struct FibreVariant
+{
+  const char* cell;
+  ufcx_form* laplace; ///< bilinear
+  ufcx_form* rhs;     ///< linear, constant "source"
+  ufcx_function_space* (*function_space)(const char*);
+  ufcx_expression* gradient; ///< grad(potential) at the cell midpoint
+};
+
 const std::vector<FeVariant>& fe_variants();
+const std::vector<FibreVariant>& fibre_variants();
 const std::vector<MaterialPointVariant>& material_point_variants();
 
 /// Look up a compiled variant; InputError listing what is available otherwise.

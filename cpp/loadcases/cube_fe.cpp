@@ -1,6 +1,7 @@
 #include "cube_fe.h"
 
 #include "../common/errors.h"
+#include "../fem/boundary.h"
 
 #include <algorithm>
 #include <cmath>
@@ -57,14 +58,6 @@ std::vector<std::int32_t> face_facets(const mesh::Mesh& mesh, int axis, double s
       { return xt::isclose(xt::row(x, axis), side); });
 }
 
-/// Unrolled dofs of one component on the given facets.
-std::vector<std::int32_t> component_dofs(const fem::FunctionSpace& V,
-                                         const std::vector<std::int32_t>& facets,
-                                         int component)
-{
-  auto Vi = V.sub({component});
-  return fem::locate_dofs_topological(*Vi, 2, facets);
-}
 } // namespace
 
 CubeLoadCase::CubeLoadCase(const ParameterSet& parameters, MuscleState state,
@@ -89,9 +82,7 @@ CubeLoadCase::CubeLoadCase(const ParameterSet& parameters, MuscleState state,
     auto g = std::make_shared<fem::Constant<double>>(0.0);
     if (f.loaded)
       _loads.push_back(g);
-    const auto facets = face_facets(*mesh, f.axis, f.side);
-    bcs.push_back(std::make_shared<fem::DirichletBC<double>>(
-        g, component_dofs(*V, facets, f.component), V->sub({f.component})));
+    bcs.push_back(prescribe_component(V, face_facets(*mesh, f.axis, f.side), f.component, g));
   }
   const ReportedComponent out = reported_component(load_case);
   _loaded_dofs = component_dofs(*V, face_facets(*mesh, out.j, 1.0), out.i);
@@ -132,14 +123,7 @@ double CubeLoadCase::reaction() const
   la::Vector<double> b(_problem->V()->dofmap()->index_map,
                        _problem->V()->dofmap()->index_map_bs());
   _solver->assemble_nodal_forces(b);
-  const std::int32_t owned = b.map()->size_local() * b.bs();
-  double local = 0;
-  for (std::int32_t d : _loaded_dofs)
-    if (d < owned)
-      local += b.array()[d];
-  double total = 0;
-  MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, b.map()->comm());
-  return total; // reference face area is 1
+  return sum_owned(b, _loaded_dofs); // reference face area is 1
 }
 
 bool CubeLoadCase::continuation(const std::function<void(double)>& set,

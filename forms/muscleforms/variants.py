@@ -151,3 +151,23 @@ def build_material_point_variant(model):
     names.export((tangent, point), "tangent")
     names.export((kin.fibre_stretch, point), "fibre_stretch")
     return names
+
+
+def build_fibre_variant(cell):
+    """Laplace problem for the fibre potential and its cell-wise gradient.
+
+    Fibres follow grad(phi) with phi = 0 on the origin and 1 on the insertion
+    (fusiform example); the expression is evaluated at the cell midpoint.
+    """
+    ucell = getattr(ufl, CELLS[cell])
+    names = _Names()
+    element = FiniteElement("Lagrange", ucell, 1)
+    phi = names.name(TrialFunction(element), "phi")
+    q = names.name(TestFunction(element), "q")
+    potential = names.name(Coefficient(element), "potential")
+    source = names.name(Constant(ucell), "source")
+    names.export(inner(grad(phi), grad(q)) * dx, "laplace")
+    names.export(source * q * dx, "rhs")
+    midpoint = [[0.5, 0.5, 0.5]] if cell == "hex" else [[0.25, 0.25, 0.25]]
+    names.export((grad(potential), midpoint), "gradient")
+    return names

@@ -1,0 +1,118 @@
+#include "fibres.h"
+
+#include "../common/errors.h"
+#include "../forms/form_registry.h"
+
+#include <cmath>
+#include <dolfinx/fem/DirichletBC.h>
+#include <dolfinx/fem/assembler.h>
+#include <dolfinx/fem/petsc.h>
+#include <dolfinx/fem/utils.h>
+#include <dolfinx/la/petsc.h>
+#include <dolfinx/mesh/cell_types.h>
+#include <petscksp.h>
+#include <xtensor/xtensor.hpp>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+
+LaplaceFibres laplace_fibres(std::shared_ptr<mesh::Mesh> mesh,
+                             const mesh::MeshTags<std::int32_t>& facet_tags,
+                             int from_tag, int to_tag,
+                             std::shared_ptr<const fem::FunctionSpace> fibre_space)
+{
+  const std::string cell = mesh::to_string(mesh->topology().cell_type());
+  const forms::FibreVariant* variant = nullptr;
+  for (const auto& v : forms::fibre_variants())
+    if (cell == v.cell)
+      variant = &v;
+  if (!variant)
+    throw InputError("no fibre kernels for cell type " + cell);
+
+  auto V = std::make_shared<fem::FunctionSpace>(
+      fem::create_functionspace(variant->function_space, "q", mesh));
+  auto source = std::make_shared<fem::Constant<double>>(0.0);
+  using Coefficients = std::map<std::string, std::shared_ptr<const fem::Function<double>>>;
+  using Constants = std::map<std::string, std::shared_ptr<const fem::Constant<double>>>;
+  auto a = std::make_shared<fem::Form<double>>(
+      fem::create_form<double>(*variant->laplace, {V, V}, Coefficients{}, Constants{}, {}));
+  auto L = std::make_shared<fem::Form<double>>(fem::create_form<double>(
+      *variant->rhs, {V}, Coefficients{}, Constants{{"source", source}}, {}));
+
+  mesh->topology_mutable().create_connectivity(2, 3);
+  std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs;
+  for (auto [tag, value] : {std::pair{from_tag, 0.0}, {to_tag, 1.0}})
+  {
+    const std::vector<std::int32_t> facets = facet_tags.find(tag);
+    bcs.push_back(std::make_shared<fem::DirichletBC<double>>(
+        std::make_shared<fem::Constant<double>>(value),
+        fem::locate_dofs_topological(*V, 2, facets), V));
+  }
+
+  la::petsc::Matrix A(fem::petsc::create_matrix(*a), false);
+  MatZeroEntries(A.mat());
+  fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A.mat(), ADD_VALUES), *a, bcs);
+  MatAssemblyBegin(A.mat(), MAT_FLUSH_ASSEMBLY);
+  MatAssemblyEnd(A.mat(), MAT_FLUSH_ASSEMBLY);
+  fem::set_diagonal<double>(la::petsc::Matrix::set_fn(A.mat(), INSERT_VALUES), *V, bcs);
+  MatAssemblyBegin(A.mat(), MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(A.mat(), MAT_FINAL_ASSEMBLY);
+
+  la::Vector<double> b(V->dofmap()->index_map, 1);
+  fem::assemble_vector<double>(b.mutable_array(), *L);
+  fem::apply_lifting<double>(b.mutable_array(), {a}, {bcs}, std::vector<std::span<const double>>{},
+                             1.0);
+  b.scatter_rev(std::plus<double>());
+  fem::set_bc<double>(b.mutable_array(), bcs);
+
+  LaplaceFibres out;
+  out.potential = std::make_shared<fem::Function<double>>(V);
+  out.potential->name = "fibre_potential";
+  la::petsc::Vector x(la::petsc::create_vector_wrap(*out.potential->x()), false);
+  la::petsc::Vector rhs(la::petsc::create_vector_wrap(b), false);
+  KSP ksp;
+  KSPCreate(mesh->comm(), &ksp);
+  KSPSetOperators(ksp, A.mat(), A.mat());
+  KSPSetType(ksp, KSPPREONLY);
+  PC pc;
+  KSPGetPC(ksp, &pc);
+  PCSetType(pc, PCLU);
+  PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+  KSPSetOptionsPrefix(ksp, "fibre_");
+  KSPSetFromOptions(ksp);
+  KSPSolve(ksp, rhs.vec(), x.vec());
+  KSPDestroy(&ksp);
+  out.potential->x()->scatter_fwd();
+
+  // normalised gradient at the midpoint of every local cell
+  auto expression = fem::create_expression<double>(
+      *variant->gradient, {{"potential", out.potential}}, {}, mesh);
+  const std::int32_t num_cells = mesh->topology().index_map(3)->size_local()
+                                 + mesh->topology().index_map(3)->num_ghosts();
+  std::vector<std::int32_t> cells(num_cells);
+  std::iota(cells.begin(), cells.end(), 0);
+  xt::xtensor<double, 2> gradient({cells.size(), 3});
+  expression.eval(std::span<const std::int32_t>(cells), gradient);
+
+  out.fibre = std::make_shared<fem::Function<double>>(
+      std::const_pointer_cast<fem::FunctionSpace>(fibre_space));
+  out.fibre->name = "fibre";
+  std::span<double> m = out.fibre->x()->mutable_array();
+  const auto& dofmap = *fibre_space->dofmap();
+  for (std::int32_t c = 0; c < num_cells; ++c)
+  {
+    const double n = std::sqrt(gradient(c, 0) * gradient(c, 0) + gradient(c, 1) * gradient(c, 1)
+                               + gradient(c, 2) * gradient(c, 2));
+    if (!(n > 0))
+      throw InputError("fibre potential has zero gradient in a cell: are the origin and "
+                       "insertion surfaces tagged and distinct?");
+    const std::int32_t dof = dofmap.cell_dofs(c)[0];
+    for (int k = 0; k < 3; ++k)
+      m[3 * dof + k] = gradient(c, k) / n;
+  }
+  return out;
+}
+
+} // namespace muscle

@@ -1,0 +1,28 @@
+#pragma once
+
+#include <dolfinx/fem/Function.h>
+#include <dolfinx/mesh/Mesh.h>
+#include <dolfinx/mesh/MeshTags.h>
+#include <memory>
+
+namespace muscle
+{
+
+/// Fibre field from a Laplace potential: phi = 0 on the `from` facets, 1 on
+/// the `to` facets, zero flux elsewhere; the fibre of a cell is the normalised
+/// gradient of phi at its midpoint.
+struct LaplaceFibres
+{
+  std::shared_ptr<dolfinx::fem::Function<double>> potential; ///< P1
+  std::shared_ptr<dolfinx::fem::Function<double>> fibre;     ///< DG0 vector, unit
+};
+
+/// `fibre_space`: the DG0 vector space the fibre is written into (that of the
+/// muscle problem).  Solved with a direct solver, so the field is the same on
+/// any number of ranks to round-off.
+LaplaceFibres laplace_fibres(std::shared_ptr<dolfinx::mesh::Mesh> mesh,
+                             const dolfinx::mesh::MeshTags<std::int32_t>& facet_tags,
+                             int from_tag, int to_tag,
+                             std::shared_ptr<const dolfinx::fem::FunctionSpace> fibre_space);
+
+} // namespace muscle

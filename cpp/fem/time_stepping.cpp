@@ -1,0 +1,129 @@
+#include "time_stepping.h"
+
+#include <cmath>
+#include <dolfinx/mesh/utils.h>
+#include <optional>
+#include <sstream>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+
+QuasiStaticStepper::QuasiStaticStepper(MuscleProblem& problem, NonlinearSolver& solver,
+                                       std::function<void(double)> set_time,
+                                       TimeSteppingOptions options)
+    : _problem(problem), _solver(solver), _set_time(std::move(set_time)),
+      _options(options)
+{
+}
+
+namespace
+{
+std::string midpoint_text(const mesh::Mesh& mesh, std::int32_t cell)
+{
+  std::ostringstream s;
+  s.precision(4);
+  const std::vector<double> x = mesh::compute_midpoints(mesh, 3, std::span(&cell, 1));
+  s << "(" << x[0] << ", " << x[1] << ", " << x[2] << ")";
+  return s.str();
+}
+} // namespace
+
+StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted, int step,
+                                         const NewtonReport& report) const
+{
+  StepFailure f;
+  f.t_converged = t_converged;
+  f.t_attempted = t_attempted;
+  f.step = step;
+  f.reason = report.reason;
+  if (report.non_finite)
+    f.reason += ", non-finite residual";
+  const auto mesh = _problem.mesh();
+  // worst element at the failed iterate (collective)
+  auto [J, cell] = _problem.min_jacobian_determinant();
+  struct
+  {
+    double value;
+    int rank;
+  } local{std::isnan(J) ? -1e300 : J, 0}, global;
+  MPI_Comm_rank(mesh->comm(), &local.rank);
+  MPI_Allreduce(&local, &global, 1, MPI_DOUBLE_INT, MPI_MINLOC, mesh->comm());
+  std::string where_local;
+  if (global.rank == local.rank and cell >= 0)
+    where_local = "smallest J = " + std::to_string(J) + " in the cell at "
+                  + midpoint_text(*mesh, cell);
+  // the text travels from the rank that has the worst cell
+  int length = where_local.size();
+  MPI_Bcast(&length, 1, MPI_INT, global.rank, mesh->comm());
+  where_local.resize(length);
+  MPI_Bcast(where_local.data(), length, MPI_CHAR, global.rank, mesh->comm());
+  f.where = where_local;
+  if (!report.kernel.ok())
+  {
+    std::int64_t failures = report.kernel.failures, total = 0;
+    MPI_Allreduce(&failures, &total, 1, MPI_INT64_T, MPI_SUM, mesh->comm());
+    f.where += "; activation kernel without admissible root at "
+               + std::to_string(total) + " quadrature points";
+  }
+  if (global.value <= 0)
+    f.advice = "elements invert: use a smaller time step (--dt), a finer mesh, or "
+               "quadratic elements";
+  else
+    f.advice = "try a smaller time step (--dt), more cutbacks, or a lower "
+               "incompressibility penalty (kappa)";
+  return f;
+}
+
+std::optional<StepFailure>
+QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
+{
+  auto& u = *_problem.u()->x();
+  std::vector<double> converged(u.array().begin(), u.array().end());
+  const double dt = _options.dt;
+  const double smallest = dt * std::pow(_options.cutback_factor, _options.max_cutbacks);
+  const int steps = static_cast<int>(std::ceil((_options.t_end - _options.t_start) / dt - 1e-9));
+  double t = _options.t_start;
+  double h = dt;
+  int successes = 0;
+  for (int k = 1; k <= steps; ++k)
+  {
+    const double target = std::min(_options.t_start + k * dt, _options.t_end);
+    StepRecord record;
+    while (t < target - 1e-14 * dt)
+    {
+      const double next = std::min(t + h, target);
+      _set_time(next);
+      const NewtonReport report = _solver.solve();
+      record.newton_iterations += report.iterations;
+      record.linear_iterations += report.linear_iterations;
+      if (report.converged)
+      {
+        t = next;
+        ++record.substeps;
+        record.residual = report.residual_norms.empty() ? 0 : report.residual_norms.back();
+        std::copy(u.array().begin(), u.array().end(), converged.begin());
+        if (++successes >= 2)
+          h = std::min(dt, h * _options.growth_factor);
+        continue;
+      }
+      StepFailure failure = diagnose(t, next, k, report);
+      std::copy(converged.begin(), converged.end(), u.mutable_array().begin());
+      u.scatter_fwd();
+      _set_time(t);
+      _problem.update_activation();
+      successes = 0;
+      ++record.cutbacks;
+      h *= _options.cutback_factor;
+      if (h < smallest * (1 - 1e-12))
+        return failure;
+    }
+    record.t = t;
+    if (!on_output(record))
+      break;
+  }
+  return std::nullopt;
+}
+
+} // namespace muscle

@@ -1,0 +1,70 @@
+#pragma once
+
+#include "nonlinear_solver.h"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace muscle
+{
+
+struct TimeSteppingOptions
+{
+  double t_start = 0;
+  double t_end = 0.15;
+  double dt = 0.005;          ///< output step; sub-steps are taken on failure
+  double cutback_factor = 0.5; ///< step multiplier after a failed Newton solve
+  int max_cutbacks = 8;       ///< the smallest step is dt * factor^max_cutbacks
+  double growth_factor = 1.5; ///< step multiplier after two successes (up to dt)
+};
+
+/// One converged output time.
+struct StepRecord
+{
+  double t = 0;
+  int newton_iterations = 0;  ///< summed over the sub-steps to reach t
+  int linear_iterations = 0;
+  int substeps = 0;
+  int cutbacks = 0;
+  double residual = 0;        ///< final residual norm of the last sub-step
+};
+
+/// Why a run stopped early.
+struct StepFailure
+{
+  double t_converged = 0;  ///< last converged time (state kept there)
+  double t_attempted = 0;  ///< the time the smallest step tried to reach
+  int step = 0;            ///< output step index being attempted
+  std::string reason;      ///< SNES reason, non-finite residual, kernel, ...
+  std::string where;       ///< worst element: inverted or no activation root
+  std::string advice;      ///< what to try
+};
+
+/// Quasi-static time stepping: for each output time solve the equilibrium
+/// with `solver`, after calling `set_time(t)` (activation, boundary values).
+/// A failed Newton solve restores the last converged displacement and cuts
+/// the step back; steps grow again after successes.  `on_output` runs after
+/// every converged output time; returns false from it to stop.
+class QuasiStaticStepper
+{
+public:
+  QuasiStaticStepper(MuscleProblem& problem, NonlinearSolver& solver,
+                     std::function<void(double)> set_time, TimeSteppingOptions options);
+
+  /// Run to t_end; the returned failure is empty if it got there.
+  std::optional<StepFailure>
+  run(const std::function<bool(const StepRecord&)>& on_output);
+
+private:
+  StepFailure diagnose(double t_converged, double t_attempted, int step,
+                       const NewtonReport& report) const;
+
+  MuscleProblem& _problem;
+  NonlinearSolver& _solver;
+  std::function<void(double)> _set_time;
+  TimeSteppingOptions _options;
+};
+
+} // namespace muscle
