@@ -17,6 +17,7 @@
 #include <common/application.h>
 #include <common/errors.h>
 #include <fem/boundary.h>
+#include <fem/condition_number.h>
 #include <fem/fibres.h>
 #include <fem/muscle_problem.h>
 #include <fem/nonlinear_solver.h>
@@ -52,7 +53,7 @@ struct Settings
   int refinement = 1, degree = 1, output_every = 1;
   double dt = -1, t_end = 0.15;
   std::vector<std::string> assignments;
-  bool quiet = false, no_fields = false;
+  bool quiet = false, no_fields = false, condition_number = false;
   NewtonOptions newton;
   int max_cutbacks = 8;
 };
@@ -92,6 +93,8 @@ Settings parse(std::vector<std::string> args)
       ->capture_default_str();
   app.add_flag("--no-fields", s.no_fields, "skip the XDMF fields");
   app.add_flag("--quiet", s.quiet, "no progress lines");
+  app.add_flag("--condition-number", s.condition_number,
+               "estimate the condition number of the last Newton matrix (SLEPc)");
   std::reverse(args.begin(), args.end());
   try
   {
@@ -235,7 +238,7 @@ int main(int argc, char** argv)
                                          + (constraint ? 1 - constraint->size() : 0)));
 
     int total_newton = 0, total_linear = 0, total_cutbacks = 0, step = 0;
-    double F33 = 0, epsilon = 1;
+    double F33 = 0, epsilon = 1, volume_change = 0;
     const int steps = static_cast<int>(std::ceil(s.t_end / s.dt - 1e-9));
     write_fields(0.0);
     auto failure = stepper.run(
@@ -250,6 +253,7 @@ int main(int argc, char** argv)
           const double F33_origin = -sum_owned(nodal, origin_dofs);
           epsilon = constraint ? 1 + constraint->value(*problem.u()->x()) / muscle_length : 1.0;
           const double dV = problem.volume() / volume0 - 1;
+          volume_change = dV;
           const double elapsed = seconds_since(start);
           if (is_root())
             series << r.t << "," << problem.time_factor() << "," << F33 << "," << F33_origin
@@ -269,6 +273,9 @@ int main(int argc, char** argv)
     // The last converged state is written whatever happened
     const MuscleProblem::PostFields post = problem.post_fields();
     export_deformed_surface(*problem.u(), *post.fibre_stretch, s.out + "/surface.json");
+    ConditionEstimate condition;
+    if (s.condition_number and step > 0)
+      condition = estimate_condition_number(solver.system_matrix());
     if (is_root())
     {
       nlohmann::json summary = {
@@ -278,8 +285,15 @@ int main(int argc, char** argv)
           {"unknowns", V->dofmap()->index_map->size_global() * 3},
           {"steps", step}, {"newton_iterations", total_newton},
           {"linear_iterations", total_linear}, {"cutbacks", total_cutbacks},
-          {"F33", F33}, {"epsilon", epsilon}, {"wall_time", seconds_since(start)},
+          {"F33", F33}, {"epsilon", epsilon}, {"volume_change", volume_change},
+          {"wall_time", seconds_since(start)},
           {"ranks", dolfinx::MPI::size(MPI_COMM_WORLD)}, {"completed", !failure}};
+      if (s.condition_number)
+      {
+        summary["condition_number"] = condition.condition;
+        summary["eigenvalue_max"] = condition.lambda_max;
+        summary["eigenvalue_min"] = condition.lambda_min;
+      }
       std::ofstream(s.out + "/summary.json") << summary.dump(1) << "\n";
     }
     if (series.is_open())
