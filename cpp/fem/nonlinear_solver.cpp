@@ -211,11 +211,19 @@ void NonlinearSolver::assemble_full_jacobian()
   MatNorm(A, NORM_INFINITY, &_matrix_norm);
 }
 
-PetscErrorCode NonlinearSolver::jacobian_callback(SNES, Vec x, Mat J, Mat, void* ctx)
+PetscErrorCode NonlinearSolver::jacobian_callback(SNES snes, Vec x, Mat J, Mat, void* ctx)
 {
   auto* self = static_cast<NonlinearSolver*>(ctx);
   self->set_state(x);
   self->assemble_full_jacobian();
+  // The tangent can overflow where the residual is still finite (the coupled
+  // penalty's tangent carries an extra (2 kappa)^2): report it, never solve with it
+  if (!std::isfinite(self->_matrix_norm))
+  {
+    self->_non_finite = true;
+    SNESSetJacobianDomainError(snes);
+    return 0;
+  }
   if (self->_constraint)
     MatPtAP(self->_A, self->_constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
   return 0;
