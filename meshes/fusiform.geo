@@ -28,6 +28,8 @@
 //    refinement  n = 1, 2 or 4 (default 1)
 //    tet         0: hexahedra only (default); 1: tetrahedra only (each hex of
 //                the same structured grid split into 6 tetrahedra)
+//    core        radius fraction of the central block's corners (default 0.5;
+//                values near 1 make nearly degenerate outer elements)
 //
 //  Physical groups (the only ones, so only these elements are saved)
 //    Physical Surface("origin", 1)     end face z = 0   (5 block faces)
@@ -45,7 +47,8 @@ SetFactory("Built-in");
 
 DefineConstant[
   refinement = {1, Choices{1, 2, 4}, Name "Parameters/refinement"},
-  tet = {0, Choices{0, 1}, Name "Parameters/tet"}
+  tet = {0, Choices{0, 1}, Name "Parameters/tet"},
+  core = {0.5, Min 0.05, Max 0.98, Name "Parameters/core"}
 ];
 
 n  = refinement;
@@ -70,7 +73,8 @@ For i In {0 : 10}
   zProf[] += zi;
   rProf[] += ri;
 EndFor
-a = 0.5;                // central-block corners at radius a * r(z)
+a = core;               // central-block corners at radius a * r(z) (0.5; near 1
+                        // the outer blocks degenerate into slivers)
 bulge = 15;             // the central-block edges are circular arcs leaving
                         // the corners at this angle (deg) to the chord
                         // (0 = straight lines)

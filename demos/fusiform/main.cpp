@@ -52,7 +52,7 @@ struct Settings
   std::string mesh = std::string(MUSCLE_SOURCE_DIR) + "/meshes/fusiform.geo";
   int refinement = 1, degree = 1, output_every = 1;
   double dt = -1, t_end = 0.15;
-  std::vector<std::string> assignments;
+  std::vector<std::string> assignments, mesh_numbers;
   bool quiet = false, no_fields = false, condition_number = false;
   NewtonOptions newton;
   int max_cutbacks = 8;
@@ -82,6 +82,8 @@ Settings parse(std::vector<std::string> args)
   app.add_option("--mesh", s.mesh, "Gmsh .geo/.msh with surfaces origin, insertion, "
                  "midsection (refinement and tet are passed as -setnumber)")
       ->capture_default_str();
+  app.add_option("--mesh-set", s.mesh_numbers, "NAME=VALUE: a further Gmsh -setnumber "
+                 "(fusiform.geo: core, the central block's radius fraction)")->take_all();
   app.add_option("--output-every", s.output_every, "write fields every N steps")
       ->capture_default_str();
   app.add_option("--linear-solver", s.newton.linear_solver,
@@ -143,8 +145,23 @@ int main(int argc, char** argv)
     std::filesystem::create_directories(s.out);
 
     // Mesh and tags from the Gmsh source
-    const GmshMesh gm = read_gmsh(MPI_COMM_WORLD, s.mesh,
-                                  {{"refinement", s.refinement}, {"tet", s.cell == "tet"}});
+    std::map<std::string, double> numbers
+        = {{"refinement", s.refinement}, {"tet", s.cell == "tet"}};
+    for (const std::string& a : s.mesh_numbers)
+    {
+      const auto eq = a.find('=');
+      try
+      {
+        if (eq == std::string::npos)
+          throw std::invalid_argument(a);
+        numbers[a.substr(0, eq)] = std::stod(a.substr(eq + 1));
+      }
+      catch (const std::exception&)
+      {
+        throw InputError("--mesh-set '" + a + "': expected NAME=NUMBER, e.g. core=0.9");
+      }
+    }
+    const GmshMesh gm = read_gmsh(MPI_COMM_WORLD, s.mesh, numbers);
     auto mesh = gm.mesh;
     const int origin = gm.surface("origin"), insertion = gm.surface("insertion"),
               midsection = gm.surface("midsection");
