@@ -71,7 +71,7 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
     f.advice = "elements invert: use a smaller time step (--dt), a finer mesh, or "
                "quadratic elements";
   else
-    f.advice = "try a smaller time step (--dt), more cutbacks, or a lower "
+    f.advice = "a smaller time step (--dt), more cutbacks, or a lower "
                "incompressibility penalty (kappa)";
   return f;
 }

@@ -46,7 +46,8 @@ def main(output, series):
         ax.set_ylabel(ylabel)
         ax.set_title(f"{kind} contraction")
         ax.grid(alpha=0.3)
-        ax.legend(frameon=False)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(frameon=False)
     fig.tight_layout()
     fig.savefig(output, dpi=130)
 

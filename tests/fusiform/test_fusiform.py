@@ -4,6 +4,7 @@
     test_fusiform.py run      --build B --model M --degree D [--dt DT]  both cases finish
     test_fusiform.py findings --build B                                   the paper's findings
     test_fusiform.py parity   --build B                                   1 vs 2 MPI ranks
+    test_fusiform.py failure  --build B                                   failure without loss
 
 `run` leaves its summaries under B/test_out/fusiform_q<D>/ for `findings`.
 References are independent of the code under test: the isometric force is
@@ -129,9 +130,35 @@ def parity(args):
                   f"{case} {column}: 1 vs 2 ranks relative difference {diff:.1e} < 1e-8")
 
 
+def failure(args):
+    """A Newton failure cuts the step back; at the limit the run stops with a message
+    (what, where, what to try), exit status 3, and its last converged state written."""
+    out = os.path.join(args.build, "test_out", "failure")
+    # one Newton iteration per attempt cannot converge: every attempt fails
+    command = [os.path.join(args.build, "fusiform"), "--model", "combi", "--case", "free",
+               "--refinement", "1", "--dt", "0.05", "--max-cutbacks", "2", "--out", out,
+               "--quiet", "-snes_max_it", "1"]
+    result = subprocess.run(command, capture_output=True, text=True)
+    message = result.stderr.strip()
+    print(message)
+    check(result.returncode == 3, f"exit status 3 for a failed solve (got {result.returncode})")
+    for part in ("Newton failed at step 1", "t = 0", "Try:", "cell"):
+        check(part in message, f"the message names '{part}'")
+    check("PETSC ERROR" not in result.stderr and "Traceback" not in result.stderr,
+          "no PETSc stack trace")
+    summary = json.load(open(os.path.join(out, "summary.json")))
+    check(summary.get("completed") is False and summary.get("cutbacks", 0) >= 0,
+          "summary.json written with completed = false")
+    check(os.path.exists(os.path.join(out, "fields.xdmf")), "fields of the last converged state")
+    with open(os.path.join(out, "series.csv")) as f:
+        rows = list(csv.DictReader(f))
+    check(all(math.isfinite(float(v)) for r in rows for v in r.values()),
+          "no NaN in series.csv")
+
+
 def main():
     parser = argparse.ArgumentParser()
-    parser.add_argument("command", choices=["run", "findings", "parity"])
+    parser.add_argument("command", choices=["run", "findings", "parity", "failure"])
     parser.add_argument("--build", required=True)
     parser.add_argument("--model", choices=MODELS)
     parser.add_argument("--degree", type=int, default=1)
@@ -139,7 +166,7 @@ def main():
     parser.add_argument("--force-spread", type=float, default=0.05)
     parser.add_argument("--shortening-spread", type=float, default=0.05)
     args = parser.parse_args()
-    {"run": run, "findings": findings, "parity": parity}[args.command](args)
+    {"run": run, "findings": findings, "parity": parity, "failure": failure}[args.command](args)
     if failures:
         print(f"{len(failures)} check(s) failed")
         return 1
