@@ -27,11 +27,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("output")
-    parser.add_argument("surfaces", nargs="+", help="TITLE=surface.json")
+    parser.add_argument("surfaces", nargs="+", help="TITLE=surface.json (split at the last =)")
     parser.add_argument("--label", default=r"fibre stretch $\lambda$")
     args = parser.parse_args()
 
-    panels = [(s.split("=", 1)[0], load(s.split("=", 1)[1])) for s in args.surfaces]
+    panels = [(s.rsplit("=", 1)[0], load(s.rsplit("=", 1)[1])) for s in args.surfaces]
     values = np.concatenate([v for _, (_, v) in panels])
     norm = matplotlib.colors.Normalize(vmin=values.min(), vmax=values.max())
     cmap = plt.get_cmap("viridis")

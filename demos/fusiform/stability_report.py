@@ -115,7 +115,7 @@ def write_page(args, records):
         "0.15 s, at the extremes. Every run either converges (possibly after halving its "
         "time step: *cutbacks*) or stops with a message and a nonzero exit status, having "
         "written its last converged state; no output file holds a NaN (checked for each "
-        "run). Regenerate with",
+        "run). For a stopped run, epsilon and dV are those of the last converged state. Regenerate with",
         "",
         "```sh",
         "/usr/bin/python3 demos/fusiform/stability_report.py   # writes this page",
