@@ -13,28 +13,14 @@
 #include <cmath>
 #include <cstdio>
 #include <gtest/gtest.h>
+#include <support/tensors.h>
 #include <random>
 
 using namespace muscle;
+using namespace muscle::testing;
 
 namespace
 {
-Matrix3 multiply(const Matrix3& A, const Matrix3& B)
-{
-  Matrix3 C{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        C[3 * i + j] += A[3 * i + k] * B[3 * k + j];
-  return C;
-}
-
-double det(const Matrix3& F)
-{
-  return F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6])
-         + F[2] * (F[3] * F[7] - F[4] * F[6]);
-}
-
 MaterialPoint with_gradient(const Matrix3& F)
 {
   MaterialPoint x;
@@ -117,12 +103,6 @@ bool overflow_expected(Model model, const Extreme& e)
   if (model == Model::ble)
     return false;
   return -2 * e.kappa * std::log(jacobian(e.x)) + 2 * std::log(2 * e.kappa + 1) > 700;
-}
-
-template <typename F>
-double central(F&& f, double h)
-{
-  return (-f(2 * h) + 8 * f(h) - 8 * f(-h) + f(-2 * h)) / (12 * h);
 }
 
 /// Within `distance` of a switch of a piecewise definition (finite differences

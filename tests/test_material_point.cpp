@@ -7,28 +7,14 @@
 
 #include <cmath>
 #include <gtest/gtest.h>
+#include <support/tensors.h>
 #include <random>
 
 using namespace muscle;
+using namespace muscle::testing;
 
 namespace
 {
-Matrix3 multiply(const Matrix3& A, const Matrix3& B)
-{
-  Matrix3 C{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        C[3 * i + j] += A[3 * i + k] * B[3 * k + j];
-  return C;
-}
-
-double det(const Matrix3& F)
-{
-  return F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6])
-         + F[2] * (F[3] * F[7] - F[4] * F[6]);
-}
-
 /// States: uniaxial fibre stretch l times a random shear, scaled to J = 1 + delta.
 std::vector<MaterialPoint> random_states(std::mt19937& rng, int count)
 {
@@ -67,12 +53,6 @@ bool near_switch(const MaterialPointModel& m, const MaterialPoint& x, double h)
     if (std::abs(l - s) < 50 * h)
       return true;
   return false;
-}
-
-template <typename F>
-double central(F&& f, double h)
-{
-  return (-f(2 * h) + 8 * f(h) - 8 * f(-h) + f(-2 * h)) / (12 * h);
 }
 
 void check_model(Model model, MuscleState state)
