@@ -21,17 +21,9 @@ using namespace muscle::testing;
 
 namespace
 {
-MaterialPoint with_gradient(const Matrix3& F)
-{
-  MaterialPoint x;
-  for (int i = 0; i < 9; ++i)
-    x.H[i] = F[i] - (i % 4 == 0 ? 1.0 : 0.0);
-  return x;
-}
-
 MaterialPoint fibre_stretch_state(double l)
 {
-  return with_gradient({1 / std::sqrt(l), 0, 0, 0, 1 / std::sqrt(l), 0, 0, 0, l});
+  return point_at({1 / std::sqrt(l), 0, 0, 0, 1 / std::sqrt(l), 0, 0, 0, l});
 }
 
 struct Extreme
@@ -61,7 +53,7 @@ Extreme random_extreme(std::mt19937& rng, const ParameterSet& preset)
   for (double& v : F)
     v *= scale;
   const double u = unit(rng);
-  return {with_gradient(F), 2 * unit(rng), log_uniform(1e-3 * preset["kappa"], 1e6),
+  return {point_at(F), 2 * unit(rng), log_uniform(1e-3 * preset["kappa"], 1e6),
           u < 0.2 ? 0.0 : u < 0.4 ? 1.0 : unit(rng)};
 }
 
@@ -103,26 +95,6 @@ bool overflow_expected(Model model, const Extreme& e)
   if (model == Model::ble)
     return false;
   return -2 * e.kappa * std::log(jacobian(e.x)) + 2 * std::log(2 * e.kappa + 1) > 700;
-}
-
-/// Within `distance` of a switch of a piecewise definition (finite differences
-/// across a kink measure the kink).
-bool near_switch(const MaterialPointModel& m, const MaterialPoint& x, double distance)
-{
-  const ParameterSet& p = m.parameters();
-  const double l = m.fibre_stretch(x);
-  std::vector<double> switches = {1.0};
-  if (p.model() == Model::ble)
-    for (double f : {0.6, 1.4})
-      switches.push_back(f * p["lambda_opt"]);
-  else
-    switches.push_back(p["lambda_min"]);
-  if (p.model() == Model::ble)
-    switches.push_back(p["lambda_star"]);
-  for (double s : switches)
-    if (std::abs(l - s) < distance)
-      return true;
-  return false;
 }
 
 /// Largest relative disagreement of stress with d(energy) and of the tangent with

@@ -102,14 +102,6 @@ Matrix3 deformation_gradient(LoadCase c, double s, double lateral)
 
 namespace
 {
-MaterialPoint point_at(const Matrix3& F)
-{
-  MaterialPoint x;
-  for (int i = 0; i < 9; ++i)
-    x.H[i] = F[i] - (i % 4 == 0 ? 1.0 : 0.0);
-  return x;
-}
-
 /// Free direction (traction-free face normal) whose diagonal condition gives p.
 int free_direction(LoadCase c)
 {

@@ -157,4 +157,12 @@ Tangent3 MaterialPointModel::tangent(const MaterialPoint& x) const
   return A;
 }
 
+MaterialPoint point_at(const Matrix3& F)
+{
+  MaterialPoint x;
+  for (int i = 0; i < 9; ++i)
+    x.H[i] = F[i] - (i % 4 == 0 ? 1.0 : 0.0);
+  return x;
+}
+
 } // namespace muscle

@@ -23,6 +23,9 @@ struct MaterialPoint
   double activation_scale = 1;          ///< element-wise scale of the activation
 };
 
+/// The material point with deformation gradient F (fibre e3, scale 1).
+MaterialPoint point_at(const Matrix3& F);
+
 /// A muscle model evaluated at single material points through the FFCx kernels
 /// compiled from the same UFL as the finite-element forms (and, for WKM and
 /// GIANT, the same quadrature-point activation kernels).

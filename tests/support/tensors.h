@@ -1,6 +1,8 @@
 #pragma once
 // Small 3x3 helpers shared by the point-wise tests (row-major Matrix3).
+#include <cmath>
 #include <material/material_point.h>
+#include <vector>
 
 namespace muscle::testing
 {
@@ -25,5 +27,24 @@ template <typename F>
 double central(F&& f, double h)
 {
   return (-f(2 * h) + 8 * f(h) - 8 * f(-h) + f(-2 * h)) / (12 * h);
+}
+/// Within `distance` of a switch of a piecewise definition in the fibre
+/// stretch (finite differences across a kink measure the kink, not the model):
+/// lambda = 1 (passive fibre switch), BLE's 0.6 and 1.4 lambda_opt and
+/// lambda_star, the Ehret models' lambda_min.
+inline bool near_switch(const MaterialPointModel& m, const MaterialPoint& x, double distance)
+{
+  const ParameterSet& p = m.parameters();
+  const double l = m.fibre_stretch(x);
+  std::vector<double> switches = {1.0};
+  if (p.model() == Model::ble)
+    switches.insert(switches.end(),
+                    {0.6 * p["lambda_opt"], 1.4 * p["lambda_opt"], p["lambda_star"]});
+  else
+    switches.push_back(p["lambda_min"]);
+  for (double s : switches)
+    if (std::abs(l - s) < distance)
+      return true;
+  return false;
 }
 } // namespace muscle::testing
