@@ -76,6 +76,13 @@ def read_series(out):
     return {k: [float(r[k]) for r in rows] for k in rows[0]} if rows else None
 
 
+def save(fig, args, name):
+    fig.tight_layout()
+    png = os.path.join(args.out, name)
+    fig.savefig(png, dpi=130)
+    print(f"wrote {png}")
+
+
 def write_table(path, header, rows):
     """Write OUT/path.csv and OUT/path.md and print the Markdown."""
     with open(path + ".csv", "w", newline="") as f:
@@ -129,10 +136,7 @@ def compare(args):
         ax.grid(alpha=0.3)
         ax.legend(frameon=False)
     fig.suptitle(f"fusiform muscle, n = {args.refinement}")
-    fig.tight_layout()
-    png = os.path.join(args.out, f"compare_n{args.refinement}.png")
-    fig.savefig(png, dpi=130)
-    print(f"wrote {png}")
+    save(fig, args, f"compare_n{args.refinement}.png")
 
 
 def mesh(args):
@@ -174,10 +178,7 @@ def mesh(args):
         ax.set_xticks(args.refinements)
         ax.grid(alpha=0.3)
         ax.legend(frameon=False)
-    fig.tight_layout()
-    png = os.path.join(args.out, "mesh_study.png")
-    fig.savefig(png, dpi=130)
-    print(f"wrote {png}")
+    save(fig, args, "mesh_study.png")
 
 
 def penalty(args):
@@ -218,10 +219,7 @@ def penalty(args):
         for ax in axes[:, j]:
             ax.grid(alpha=0.3, which="both")
             ax.legend(frameon=False)
-    fig.tight_layout()
-    png = os.path.join(args.out, "penalty_study.png")
-    fig.savefig(png, dpi=130)
-    print(f"wrote {png}")
+    save(fig, args, "penalty_study.png")
 
 
 def locking(args):
