@@ -244,6 +244,16 @@ PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
       = 100 * std::numeric_limits<double>::epsilon() * self->_matrix_norm * xnorm;
   if (*reason == SNES_CONVERGED_ITERATING and fnorm <= floor)
     *reason = SNES_CONVERGED_FNORM_ABS;
+  if (it == 0)
+    self->_norms.clear();
+  self->_norms.push_back(fnorm);
+  const int window = self->_options.stagnation_window;
+  if (*reason == SNES_CONVERGED_ITERATING and window > 0 and it >= window
+      and fnorm > (1 - self->_options.stagnation_reduction) * self->_norms[it - window])
+  {
+    self->_stagnated = true;
+    *reason = SNES_DIVERGED_MAX_IT;
+  }
   return 0;
 }
 
@@ -251,6 +261,7 @@ NewtonReport NonlinearSolver::solve()
 {
   NewtonReport report;
   _non_finite = false;
+  _stagnated = false;
   if (_constraint)
     _constraint->restrict_to(*_problem.u()->x(), _x);
   else
@@ -261,7 +272,11 @@ NewtonReport NonlinearSolver::solve()
   SNESConvergedReason reason;
   SNESGetConvergedReason(_snes, &reason);
   report.converged = reason > 0;
-  report.reason = SNESConvergedReasons[reason];
+  report.reason = _stagnated ? "STAGNATED (residual down by less than "
+                                   + std::to_string(_options.stagnation_reduction)
+                                   + " in " + std::to_string(_options.stagnation_window)
+                                   + " iterations)"
+                             : std::string(SNESConvergedReasons[reason]);
   PetscInt its, lits;
   SNESGetIterationNumber(_snes, &its);
   SNESGetLinearSolveIterations(_snes, &lits);

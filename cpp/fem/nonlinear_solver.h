@@ -29,6 +29,13 @@ struct NewtonOptions
   /// choice where the residual norm is a poor merit function (the fusiform
   /// muscle: bt needs ~10x more iterations there, see its --line-search).
   std::string line_search = "bt";
+  /// Give up early when the residual norm fell by less than
+  /// `stagnation_reduction` (relative) over the last `stagnation_window`
+  /// iterations: a line search creeping with tiny steps (seen with cp on
+  /// GIANT's travelling wave: 25 iterations losing 1e-6 each) costs a full
+  /// max_iterations before the step is cut anyway.  0 disables.
+  int stagnation_window = 5;
+  double stagnation_reduction = 1e-3;
 };
 
 /// What one nonlinear solve did.
@@ -96,6 +103,8 @@ private:
   KernelStatus _last_kernel;
   double _matrix_norm = 0; ///< infinity norm of the last Jacobian
   bool _non_finite = false;
+  bool _stagnated = false;
+  std::vector<double> _norms; ///< residual norms of the current solve
 };
 
 } // namespace muscle

@@ -68,10 +68,10 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
                + std::to_string(total) + " quadrature points";
   }
   if (global.value <= 0)
-    f.advice = "elements invert: use a smaller time step (--dt), a finer mesh, or "
+    f.advice = "elements invert: use a smaller time step (--dt, scene time.step), a finer mesh, or "
                "quadratic elements";
   else
-    f.advice = "a smaller time step (--dt), more cutbacks, or a lower "
+    f.advice = "a smaller time step (--dt, scene time.step), more cutbacks, or a lower "
                "incompressibility penalty (kappa)";
   return f;
 }
@@ -85,8 +85,8 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
   const double smallest = dt * std::pow(_options.cutback_factor, _options.max_cutbacks);
   const int steps = static_cast<int>(std::ceil((_options.t_end - _options.t_start) / dt - 1e-9));
   double t = _options.t_start;
-  double h = dt;
-  int successes = 0;
+  double h = _options.first_substep > 0 ? std::min(dt, _options.first_substep) : dt;
+  int successes = _options.first_successes;
   for (int k = 1; k <= steps; ++k)
   {
     const double target = std::min(_options.t_start + k * dt, _options.t_end);
@@ -117,9 +117,15 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
       ++record.cutbacks;
       h *= _options.cutback_factor;
       if (h < smallest * (1 - 1e-12))
+      {
+        failure.newton_iterations = record.newton_iterations;
+        failure.cutbacks = record.cutbacks;
         return failure;
+      }
     }
     record.t = t;
+    record.next_substep = h;
+    record.successes = successes;
     if (!on_output(record))
       break;
   }

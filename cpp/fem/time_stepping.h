@@ -18,6 +18,10 @@ struct TimeSteppingOptions
   double cutback_factor = 0.5; ///< step multiplier after a failed Newton solve
   int max_cutbacks = 8;       ///< the smallest step is dt * factor^max_cutbacks
   double growth_factor = 1.5; ///< step multiplier after two successes (up to dt)
+  /// Resuming: the sub-step and success count the interrupted run had reached
+  /// (0: start with dt), so the resumed run takes the very same steps.
+  double first_substep = 0;
+  int first_successes = 0;
 };
 
 /// One converged output time.
@@ -29,6 +33,8 @@ struct StepRecord
   int substeps = 0;
   int cutbacks = 0;
   double residual = 0;        ///< final residual norm of the last sub-step
+  double next_substep = 0;    ///< sub-step the stepper will try next
+  int successes = 0;          ///< consecutive successes (step growth)
 };
 
 /// Why a run stopped early.
@@ -40,6 +46,8 @@ struct StepFailure
   std::string reason;      ///< SNES reason, non-finite residual, kernel, ...
   std::string where;       ///< worst element: inverted or no activation root
   std::string advice;      ///< what to try
+  int newton_iterations = 0; ///< spent on the failed output step, all attempts
+  int cutbacks = 0;          ///< attempts that failed on it
 };
 
 /// Quasi-static time stepping: for each output time solve the equilibrium

@@ -93,6 +93,9 @@ Settings parse(std::vector<std::string> args)
       ->capture_default_str();
   app.add_option("--max-cutbacks", s.max_cutbacks, "halvings of a failing step")
       ->capture_default_str();
+  app.add_option("--stagnation-window", s.newton.stagnation_window,
+                 "cut the step when the residual fell by less than 0.1 % over this many Newton "
+                 "iterations (0: never)")->capture_default_str();
   app.add_flag("--no-fields", s.no_fields, "skip the XDMF fields");
   app.add_flag("--quiet", s.quiet, "no progress lines");
   app.add_flag("--condition-number", s.condition_number,
@@ -305,6 +308,12 @@ int main(int argc, char** argv)
           {"F33", F33}, {"epsilon", epsilon}, {"volume_change", volume_change},
           {"wall_time", seconds_since(start)},
           {"ranks", dolfinx::MPI::size(MPI_COMM_WORLD)}, {"completed", !failure}};
+      if (failure)
+        summary["failure"] = {{"t_converged", failure->t_converged},
+                              {"t_attempted", failure->t_attempted},
+                              {"reason", failure->reason}, {"where", failure->where},
+                              {"newton_iterations", failure->newton_iterations},
+                              {"cutbacks", failure->cutbacks}};
       if (s.condition_number)
       {
         summary["condition_number"] = condition.condition;
@@ -320,7 +329,9 @@ int main(int argc, char** argv)
     if (failure)
       throw SolveError("Newton failed at step " + std::to_string(failure->step) + " going from t = "
                        + std::to_string(failure->t_converged) + " to "
-                       + std::to_string(failure->t_attempted) + " s (" + failure->reason + "); "
+                       + std::to_string(failure->t_attempted) + " s (" + failure->reason + "; "
+                       + std::to_string(failure->cutbacks) + " cutbacks, "
+                       + std::to_string(failure->newton_iterations) + " Newton iterations); "
                        + failure->where + ". The state at t = "
                        + std::to_string(failure->t_converged) + " s is written to " + s.out
                        + ". Try: " + failure->advice + ".");

@@ -83,8 +83,11 @@ def main():
             record = {
                 "model": model, "extreme": name, "options": " ".join(options),
                 "exit": result.returncode, "completed": bool(summary.get("completed")),
-                "steps": summary.get("steps"), "newton": summary.get("newton_iterations"),
-                "cutbacks": summary.get("cutbacks"), "epsilon": summary.get("epsilon"),
+                # a stopped run's counts include the attempts on the step that failed
+                "steps": summary.get("steps"),
+                "newton": (summary.get("newton_iterations") or 0)
+                + summary.get("failure", {}).get("newton_iterations", 0),
+                "cutbacks": (summary.get("cutbacks") or 0) + summary.get("failure", {}).get("cutbacks", 0), "epsilon": summary.get("epsilon"),
                 "volume_change": summary.get("volume_change"), "wall": wall,
                 "message": message if result.returncode else "",
                 "outputs_finite": all_finite(os.path.join(out, "series.csv"))
@@ -115,7 +118,8 @@ def write_page(args, records):
         "0.15 s, at the extremes. Every run either converges (possibly after halving its "
         "time step: *cutbacks*) or stops with a message and a nonzero exit status, having "
         "written its last converged state; no output file holds a NaN (checked for each "
-        "run). For a stopped run, epsilon and dV are those of the last converged state. Regenerate with",
+        "run). For a stopped run, epsilon and dV are those of the last converged state, and the "
+        "Newton iterations and cutbacks include the failed attempts. Regenerate with",
         "",
         "```sh",
         "/usr/bin/python3 demos/fusiform/stability_report.py   # writes this page",

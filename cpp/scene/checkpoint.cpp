@@ -1,0 +1,130 @@
+#include "checkpoint.h"
+
+#include "../common/errors.h"
+
+#include <cmath>
+#include <cstdio>
+#include <dolfinx/common/MPI.h>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+namespace
+{
+/// Node coordinates rounded to 1e-7 mm: dof coordinates of quadratic elements
+/// are computed cell by cell and may differ in the last bits between ranks.
+using Key = std::array<long long, 3>;
+Key key(const double* x)
+{
+  return {std::llround(x[0] * 1e7), std::llround(x[1] * 1e7), std::llround(x[2] * 1e7)};
+}
+
+constexpr std::int64_t magic = 0x4d55534c45434b31; // "MUSLECK1"
+} // namespace
+
+void write_checkpoint(const fem::Function<double>& u, const std::string& directory,
+                      const nlohmann::json& state)
+{
+  const auto& V = *u.function_space();
+  const int bs = V.dofmap()->index_map_bs();
+  const std::int32_t owned = V.dofmap()->index_map->size_local();
+  const std::vector<double> x = V.tabulate_dof_coordinates(false);
+  std::span<const double> values = u.x()->array();
+
+  // node records: x, y, z, then bs values
+  std::vector<double> local;
+  local.reserve(owned * (3 + bs));
+  for (std::int32_t i = 0; i < owned; ++i)
+  {
+    local.insert(local.end(), x.begin() + 3 * i, x.begin() + 3 * i + 3);
+    local.insert(local.end(), values.begin() + bs * i, values.begin() + bs * (i + 1));
+  }
+  MPI_Comm comm = V.mesh()->comm();
+  const int size = dolfinx::MPI::size(comm), rank = dolfinx::MPI::rank(comm);
+  int count = local.size();
+  std::vector<int> counts(size), offsets(size + 1, 0);
+  MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
+  for (int r = 0; r < size; ++r)
+    offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<double> all(rank == 0 ? offsets[size] : 0);
+  MPI_Gatherv(local.data(), count, MPI_DOUBLE, all.data(), counts.data(), offsets.data(),
+              MPI_DOUBLE, 0, comm);
+  if (rank != 0)
+    return;
+
+  const std::string bin = directory + "/checkpoint.bin", json = directory + "/checkpoint.json";
+  {
+    std::ofstream out(bin + ".tmp", std::ios::binary);
+    const std::int64_t header[3] = {magic, bs, state.at("step").get<std::int64_t>()};
+    out.write(reinterpret_cast<const char*>(header), sizeof header);
+    out.write(reinterpret_cast<const char*>(all.data()), all.size() * sizeof(double));
+    if (!out)
+      throw std::runtime_error("cannot write " + bin + ".tmp");
+  }
+  std::filesystem::rename(bin + ".tmp", bin);
+  std::ofstream(json + ".tmp") << state.dump(1) << "\n";
+  std::filesystem::rename(json + ".tmp", json);
+}
+
+nlohmann::json read_checkpoint(fem::Function<double>& u, const std::string& directory)
+{
+  const std::string bin = directory + "/checkpoint.bin", json = directory + "/checkpoint.json";
+  if (!std::filesystem::exists(json) or !std::filesystem::exists(bin))
+    throw InputError("--resume: no checkpoint in " + directory
+                     + " (checkpoint.json and checkpoint.bin are written after every converged "
+                       "step; run without --resume to start afresh)");
+  nlohmann::json state;
+  try
+  {
+    state = nlohmann::json::parse(std::ifstream(json));
+  }
+  catch (const std::exception& e)
+  {
+    throw InputError(json + ": unreadable checkpoint (" + e.what() + ")");
+  }
+  const auto& V = *u.function_space();
+  const int bs = V.dofmap()->index_map_bs();
+  std::ifstream in(bin, std::ios::binary);
+  std::int64_t header[3] = {0, 0, 0};
+  in.read(reinterpret_cast<char*>(header), sizeof header);
+  if (!in or header[0] != magic or header[1] != bs
+      or header[2] != state.at("step").get<std::int64_t>())
+    throw InputError(bin + ": does not match " + json + " (a run killed while writing?)");
+  std::vector<double> all;
+  for (double v; in.read(reinterpret_cast<char*>(&v), sizeof v);)
+    all.push_back(v);
+  const std::size_t record = 3 + bs;
+  std::map<Key, std::size_t> index;
+  for (std::size_t i = 0; i + record <= all.size(); i += record)
+    index[key(&all[i])] = i + 3;
+
+  const std::vector<double> x = V.tabulate_dof_coordinates(false);
+  std::span<double> values = u.x()->mutable_array();
+  const std::size_t nodes = values.size() / bs;
+  std::int64_t missing = 0;
+  for (std::size_t i = 0; i < nodes; ++i)
+  {
+    auto it = index.find(key(&x[3 * i]));
+    if (it == index.end())
+    {
+      ++missing;
+      continue;
+    }
+    for (int c = 0; c < bs; ++c)
+      values[bs * i + c] = all[it->second + c];
+  }
+  std::int64_t total = 0;
+  MPI_Allreduce(&missing, &total, 1, MPI_INT64_T, MPI_SUM, V.mesh()->comm());
+  if (total > 0)
+    throw InputError(bin + ": " + std::to_string(total)
+                     + " nodes of this mesh are not in the checkpoint (was the mesh or the "
+                       "element degree changed?)");
+  u.x()->scatter_fwd();
+  return state;
+}
+
+} // namespace muscle

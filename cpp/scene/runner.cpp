@@ -1,0 +1,602 @@
+#include "runner.h"
+
+#include "../common/application.h"
+#include "../common/errors.h"
+#include "../fem/boundary.h"
+#include "../fem/fibres.h"
+#include "../fem/muscle_problem.h"
+#include "../fem/uniform_constraint.h"
+#include "../io/gmsh_mesh.h"
+#include "../io/plotting.h"
+#include "../io/surface_export.h"
+#include "../material/time_functions.h"
+#include "checkpoint.h"
+#include "point_data.h"
+
+#include <chrono>
+#include <cstdio>
+#include <dolfinx/fem/assembler.h>
+#include <dolfinx/fem/petsc.h>
+#include <dolfinx/io/XDMFFile.h>
+#include <dolfinx/la/petsc.h>
+#include <dolfinx/mesh/utils.h>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <numeric>
+#include <set>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+namespace
+{
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start)
+{
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::size_t fingerprint(const std::string& text) { return std::hash<std::string>{}(text); }
+
+std::vector<std::int32_t> all_cells(const mesh::Mesh& mesh)
+{
+  auto map = mesh.topology().index_map(3);
+  std::vector<std::int32_t> cells(map->size_local() + map->num_ghosts());
+  std::iota(cells.begin(), cells.end(), 0);
+  return cells;
+}
+
+/// Cell-wise activation scale: evaluated once, or every step if it depends on t.
+class ScaleField
+{
+public:
+  ScaleField(const ActivationScale& spec, const GmshMesh& gm, fem::Function<double>& scale)
+      : _spec(spec), _scale(scale)
+  {
+    const auto& mesh = *gm.mesh;
+    const std::vector<std::int32_t> cells = all_cells(mesh);
+    _midpoints = mesh::compute_midpoints(mesh, 3, cells);
+    _dofs.resize(cells.size());
+    for (std::size_t c = 0; c < cells.size(); ++c)
+      _dofs[c] = scale.function_space()->dofmap()->cell_dofs(c)[0];
+    if (spec.kind == ActivationScale::Kind::groups)
+    {
+      std::map<int, double> by_tag;
+      for (const auto& [name, value] : spec.groups)
+      {
+        auto it = gm.volumes.find(name);
+        if (it == gm.volumes.end())
+        {
+          std::vector<std::string> names;
+          for (const auto& [n, _] : gm.volumes)
+            names.push_back(n);
+          throw InputError(spec.where.text() + ": the mesh has no volume group '" + name
+                           + "'; it has: " + join(names) + did_you_mean(name, names));
+        }
+        by_tag[it->second] = value;
+      }
+      _fixed.assign(cells.size(), spec.other);
+      const auto tags = gm.cell_tags->values();
+      const auto indices = gm.cell_tags->indices();
+      for (std::size_t i = 0; i < indices.size(); ++i)
+        if (auto it = by_tag.find(tags[i]); it != by_tag.end())
+          _fixed[indices[i]] = it->second;
+    }
+    else if (spec.kind == ActivationScale::Kind::file)
+    {
+      _data = std::make_unique<PointData>(spec.path, 0);
+      if (!_data->timed() and _data->columns() != 1)
+        throw InputError(spec.path + ": expected one value column (x,y,z,scale) or time "
+                                     "columns (x,y,z,0,0.05,...)");
+      for (std::size_t c = 0; c < cells.size(); ++c)
+        _rows.push_back(_data->nearest({_midpoints[3 * c], _midpoints[3 * c + 1],
+                                        _midpoints[3 * c + 2]}));
+    }
+    update(0.0, true);
+  }
+
+  bool time_dependent() const
+  {
+    return (_spec.kind == ActivationScale::Kind::expression and _spec.formula->uses("t"))
+           or (_data and _data->timed());
+  }
+
+  void update(double t, bool first = false)
+  {
+    if (!first and !time_dependent())
+      return;
+    std::span<double> x = _scale.x()->mutable_array();
+    for (std::size_t c = 0; c < _dofs.size(); ++c)
+    {
+      double v = _spec.value;
+      switch (_spec.kind)
+      {
+      case ActivationScale::Kind::groups:
+        v = _fixed[c];
+        break;
+      case ActivationScale::Kind::expression:
+      {
+        const double args[4] = {_midpoints[3 * c], _midpoints[3 * c + 1], _midpoints[3 * c + 2], t};
+        v = (*_spec.formula)(args);
+        break;
+      }
+      case ActivationScale::Kind::file:
+        v = _data->value_at(_rows[c], t);
+        break;
+      default:
+        break;
+      }
+      if (!std::isfinite(v) or v < 0)
+        throw InputError(_spec.where.text() + ": the activation scale is " + std::to_string(v)
+                         + " in the cell at (" + std::to_string(_midpoints[3 * c]) + ", "
+                         + std::to_string(_midpoints[3 * c + 1]) + ", "
+                         + std::to_string(_midpoints[3 * c + 2]) + ") at t = "
+                         + std::to_string(t) + "; it must be finite and >= 0");
+      x[_dofs[c]] = v;
+    }
+  }
+
+private:
+  const ActivationScale& _spec;
+  fem::Function<double>& _scale;
+  std::vector<double> _midpoints, _fixed;
+  std::vector<std::int32_t> _dofs;
+  std::unique_ptr<PointData> _data;
+  std::vector<std::size_t> _rows;
+};
+
+void set_fibres(const FibreSpec& spec, const GmshMesh& gm, MuscleProblem& problem,
+                const std::function<int(const std::string&, const SceneLocation&)>& surface)
+{
+  if (spec.kind == FibreSpec::Kind::direction)
+    problem.set_fibre(spec.direction);
+  else if (spec.kind == FibreSpec::Kind::laplace)
+  {
+    const LaplaceFibres fibres
+        = laplace_fibres(gm.mesh, *gm.facet_tags, surface(spec.from, spec.where),
+                         surface(spec.to, spec.where), problem.fibre()->function_space());
+    problem.set_fibre(*fibres.fibre);
+  }
+  else
+  {
+    const PointData data(spec.path, 3);
+    const std::vector<std::int32_t> cells = all_cells(*gm.mesh);
+    const std::vector<double> mid = mesh::compute_midpoints(*gm.mesh, 3, cells);
+    auto& fibre = *problem.fibre();
+    std::span<double> x = fibre.x()->mutable_array();
+    for (std::size_t c = 0; c < cells.size(); ++c)
+    {
+      const std::size_t row = data.nearest({mid[3 * c], mid[3 * c + 1], mid[3 * c + 2]});
+      const double a[3] = {data.value(row, 0), data.value(row, 1), data.value(row, 2)};
+      const double n = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+      if (!(n > 0))
+        throw InputError(spec.path + ": zero fibre direction at data row "
+                         + std::to_string(row + 1));
+      const std::int32_t dof = fibre.function_space()->dofmap()->cell_dofs(c)[0];
+      for (int k = 0; k < 3; ++k)
+        x[3 * dof + k] = a[k] / n;
+    }
+  }
+}
+
+/// Time `count` residual and Jacobian assemblies of a problem's forms.
+nlohmann::json time_assembly(MuscleProblem& problem, int count)
+{
+  Mat A = fem::petsc::create_matrix(*problem.jacobian(), "aij");
+  la::Vector<double> b(problem.V()->dofmap()->index_map, problem.V()->dofmap()->index_map_bs());
+  auto median = [](std::vector<double> v)
+  {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  std::vector<double> residual, jacobian, kernel;
+  for (int k = 0; k < count; ++k)
+  {
+    auto t0 = Clock::now();
+    problem.update_activation();
+    kernel.push_back(seconds_since(t0));
+    t0 = Clock::now();
+    std::fill(b.mutable_array().begin(), b.mutable_array().end(), 0.0);
+    fem::assemble_vector<double>(b.mutable_array(), *problem.residual());
+    residual.push_back(seconds_since(t0));
+    t0 = Clock::now();
+    MatZeroEntries(A);
+    fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES), *problem.jacobian(),
+                         {});
+    MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
+    MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
+    jacobian.push_back(seconds_since(t0));
+  }
+  MatDestroy(&A);
+  return {{"forms", problem.kernel_name()},
+          {"activation_kernel_s", problem.has_activation_kernel() ? median(kernel) : 0.0},
+          {"residual_s", median(residual)},
+          {"jacobian_s", median(jacobian)}};
+}
+} // namespace
+
+void run_scene(const Scene& scene, const RunOptions& options)
+{
+  const auto start = Clock::now();
+  const Part& part = scene.parts.front();
+  std::filesystem::create_directories(options.out);
+
+  // Mesh with its named surfaces and volumes
+  const GmshMesh gm = read_gmsh(MPI_COMM_WORLD, scene.mesh.path, scene.mesh.numbers);
+  auto mesh = gm.mesh;
+  auto surface = [&](const std::string& name, const SceneLocation& where)
+  {
+    try
+    {
+      return gm.surface(name);
+    }
+    catch (const InputError& e)
+    {
+      throw InputError(where.text() + ": " + e.what());
+    }
+  };
+
+  // The material: passive forms for a passive part, the activation kernel
+  // only for WKM/GIANT, the twitch train only if the time function asks for it
+  std::unique_ptr<MuscleProblem> problem_owner;
+  try
+  {
+    problem_owner = std::make_unique<MuscleProblem>(
+        mesh, part.parameters, Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree},
+        !part.active);
+  }
+  catch (const InputError& e)
+  {
+    throw InputError(scene.file + ": element: " + e.what());
+  }
+  MuscleProblem& problem = *problem_owner;
+  set_fibres(part.fibres, gm, problem, surface);
+  std::unique_ptr<ScaleField> scale;
+  if (part.active)
+    scale = std::make_unique<ScaleField>(part.activation_scale, gm, *problem.activation_scale());
+  const bool model_time = part.active and part.activation_time.kind == TimeFunction::Kind::model;
+
+  // Boundary conditions
+  auto V = problem.V();
+  std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs;
+  std::vector<std::pair<std::shared_ptr<fem::Constant<double>>, const TimeFunction*>> moving;
+  std::shared_ptr<UniformDisplacementConstraint> constraint;
+  std::set<std::string> supports; // surfaces with Dirichlet values (reactions)
+  for (const BoundaryCondition& bc : scene.boundary)
+  {
+    const auto facets = tagged_facets(*gm.facet_tags, surface(bc.surface, bc.where));
+    supports.insert(bc.surface);
+    if (bc.kind == BoundaryCondition::Kind::clamp)
+      bcs.push_back(clamp(V, facets));
+    else if (bc.kind == BoundaryCondition::Kind::displacement)
+    {
+      auto value = std::make_shared<fem::Constant<double>>(bc.value(0.0));
+      moving.push_back({value, &bc.value});
+      bcs.push_back(prescribe_component(V, facets, bc.component, value));
+    }
+    else
+      constraint = std::make_shared<UniformDisplacementConstraint>(
+          *V, component_dofs(*V, facets, bc.component));
+  }
+
+  // Series quantities
+  la::Vector<double> nodal(V->dofmap()->index_map, V->dofmap()->index_map_bs());
+  const double volume0 = problem.volume();
+  std::vector<std::function<double()>> measure;
+  std::vector<std::shared_ptr<fem::Form<double>>> keep_forms;
+  std::vector<std::shared_ptr<mesh::MeshTags<std::int32_t>>> keep_tags;
+  bool need_nodal_forces = false;
+  for (const SeriesQuantity& q : scene.output.series)
+  {
+    using K = SeriesQuantity::Kind;
+    std::vector<std::int32_t> dofs;
+    if (!q.surface.empty())
+      dofs = component_dofs(*V, tagged_facets(*gm.facet_tags, surface(q.surface, q.where)),
+                            q.component);
+    std::int64_t count = dofs.size(), total = 0;
+    const std::int32_t owned = V->dofmap()->index_map->size_local() * 3;
+    count = std::count_if(dofs.begin(), dofs.end(), [&](auto d) { return d < owned; });
+    MPI_Allreduce(&count, &total, 1, MPI_INT64_T, MPI_SUM, mesh->comm());
+    switch (q.kind)
+    {
+    case K::activation:
+      measure.push_back([&] { return problem.time_factor(); });
+      break;
+    case K::reaction:
+      if (!supports.count(q.surface))
+        throw InputError(q.where.text() + ": '" + q.surface
+                         + "' carries no boundary condition, so there is no reaction; use "
+                           "section_force for an interior surface");
+      need_nodal_forces = true;
+      measure.push_back([&nodal, dofs] { return -sum_owned(nodal, dofs); });
+      break;
+    case K::section_force:
+    {
+      // the residual of the cells on one side of the surface, summed over its nodes
+      const auto facets = tagged_facets(*gm.facet_tags, surface(q.surface, q.where));
+      const std::vector<double> fm = mesh::compute_midpoints(*mesh, 2, facets);
+      double local[2] = {0, static_cast<double>(facets.size())}, global[2];
+      for (std::size_t f = 0; f < facets.size(); ++f)
+        local[0] += fm[3 * f + q.component];
+      MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_SUM, mesh->comm());
+      const double level = global[0] / global[1];
+      const std::vector<std::int32_t> cells = all_cells(*mesh);
+      const std::vector<double> cm = mesh::compute_midpoints(*mesh, 3, cells);
+      std::vector<std::int32_t> side(cells.size());
+      for (std::size_t c = 0; c < cells.size(); ++c)
+        side[c] = (cm[3 * c + q.component] < level) == (q.sign > 0) ? 1 : 2;
+      auto tags = std::make_shared<mesh::MeshTags<std::int32_t>>(mesh, 3, cells, side);
+      auto form = problem.residual_on_cells(tags, 1);
+      keep_tags.push_back(tags);
+      keep_forms.push_back(form);
+      const double sign = q.sign;
+      measure.push_back(
+          [&nodal, form, dofs, sign]
+          {
+            la::Vector<double> b(nodal.map(), nodal.bs());
+            fem::assemble_vector<double>(b.mutable_array(), *form);
+            b.scatter_rev(std::plus<double>());
+            return sign * sum_owned(b, dofs);
+          });
+      break;
+    }
+    case K::displacement:
+    case K::stretch_ratio:
+    {
+      const double length = q.kind == K::stretch_ratio ? q.length : 0;
+      auto u = problem.u();
+      measure.push_back(
+          [u, dofs, total, length]
+          {
+            const double mean = sum_owned(*u->x(), dofs) / std::max<std::int64_t>(total, 1);
+            return length > 0 ? 1 + mean / length : mean;
+          });
+      break;
+    }
+    case K::volume_change:
+      measure.push_back([&, volume0] { return problem.volume() / volume0 - 1; });
+      break;
+    case K::min_J:
+      measure.push_back(
+          [&]
+          {
+            const double local = problem.min_jacobian_determinant().first;
+            double global = 0;
+            MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MIN, mesh->comm());
+            return global;
+          });
+      break;
+    }
+  }
+
+  const std::int64_t unknowns = V->dofmap()->index_map->size_global() * 3
+                                + (constraint ? 1 - constraint->size() : 0);
+  nlohmann::json built = {
+      {"forms", problem.kernel_name()},
+      {"activation_terms", part.active},
+      {"activation_kernel", problem.has_activation_kernel()},
+      {"twitch_train", model_time and uses_twitch_train(part.parameters.model())},
+      {"axial_constraint_unknown", constraint != nullptr},
+      {"mass_matrix", false},
+      {"unknowns", unknowns}};
+  if (!options.quiet and is_root())
+    std::printf("%s: %s, %lld cells, %lld unknowns, forms %s%s\n", scene.file.c_str(),
+                scene.title.c_str(), static_cast<long long>(gm.num_cells),
+                static_cast<long long>(unknowns), problem.kernel_name().c_str(),
+                problem.has_activation_kernel() ? " + activation kernel" : "");
+
+  nlohmann::json assembly;
+  if (options.measure_assembly > 0)
+  {
+    // the scene's forms against the plain passive forms of the same model
+    problem.set_time_factor(part.active ? 1.0 : 0.0);
+    assembly["scene"] = time_assembly(problem, options.measure_assembly);
+    MuscleProblem plain(mesh, part.parameters,
+                        {scene.mesh.degree, scene.mesh.quadrature_degree}, true);
+    assembly["plain_passive"] = time_assembly(plain, options.measure_assembly);
+    problem.set_time_factor(0);
+    if (is_root())
+      for (const char* k : {"scene", "plain_passive"})
+        std::printf("assembly (%s, %s): residual %.4f s, Jacobian %.4f s, activation kernel "
+                    "%.4f s (median of %d)\n",
+                    k, assembly[k]["forms"].get<std::string>().c_str(),
+                    assembly[k]["residual_s"].get<double>(), assembly[k]["jacobian_s"].get<double>(),
+                    assembly[k]["activation_kernel_s"].get<double>(), options.measure_assembly);
+  }
+  if (options.check_only)
+    return;
+
+  // Time stepping state, from a checkpoint when resuming
+  TimeSteppingOptions stepping = scene.time;
+  int step = 0, total_newton = 0, total_linear = 0, total_cutbacks = 0;
+  double previous_wall = 0;
+  const std::string series_path = options.out + "/series.csv";
+  if (options.resume)
+  {
+    const nlohmann::json state = read_checkpoint(*problem.u(), options.out);
+    if (state.value("scene_fingerprint", std::size_t(0)) != fingerprint(scene.physics))
+      throw InputError("--resume: the scene's mesh, element, parts or boundary changed since "
+                       "the checkpoint in " + options.out + " was written (time, solver and "
+                       "output settings may change); run without --resume to start afresh");
+    step = state.at("step");
+    stepping.t_start = state.at("t");
+    stepping.first_substep = state.at("next_substep");
+    stepping.first_successes = state.at("successes");
+    total_newton = state.at("newton_iterations");
+    total_linear = state.at("linear_iterations");
+    total_cutbacks = state.at("cutbacks");
+    previous_wall = state.at("wall_time");
+    if (is_root())
+    {
+      // keep the series up to the checkpoint
+      std::ifstream in(series_path);
+      std::vector<std::string> lines;
+      for (std::string line; std::getline(in, line) and lines.size() < std::size_t(step) + 1;)
+        lines.push_back(line);
+      std::ofstream out(series_path);
+      for (const auto& line : lines)
+        out << line << "\n";
+    }
+    if (!options.quiet and is_root())
+      std::printf("resuming at t = %.6g s (step %d)\n", stepping.t_start, step);
+  }
+
+  auto set_time = [&](double t)
+  {
+    if (part.active)
+    {
+      const double model_factor = model_time ? time_factor(part.parameters, t) : 0.0;
+      problem.set_time_factor(part.activation_time(t, model_factor));
+      scale->update(t);
+    }
+    for (auto& [constant, function] : moving)
+      constant->value = {(*function)(t)};
+  };
+  set_time(stepping.t_start);
+  problem.update_activation();
+
+  NonlinearSolver solver(problem, bcs, constraint, scene.newton);
+  QuasiStaticStepper stepper(problem, solver, set_time, stepping);
+
+  // Outputs
+  std::ofstream series;
+  if (is_root())
+  {
+    series.open(series_path, options.resume ? std::ios::app : std::ios::trunc);
+    series.precision(12);
+    if (!options.resume)
+    {
+      series << "t";
+      for (const SeriesQuantity& q : scene.output.series)
+        series << "," << q.name;
+      series << ",newton_iterations,linear_iterations,cutbacks,residual,wall_time\n";
+    }
+  }
+  // A killed run leaves its HDF5 file unclosed (unreadable for appending):
+  // a resumed run writes its fields to a file of its own.
+  std::unique_ptr<io::XDMFFile> xdmf;
+  const std::string fields_path
+      = options.out + (options.resume ? "/fields_from_step" + std::to_string(step) + ".xdmf"
+                                      : "/fields.xdmf");
+  if (scene.output.fields)
+  {
+    xdmf = std::make_unique<io::XDMFFile>(mesh->comm(), fields_path, "w");
+    xdmf->write_mesh(*mesh);
+    xdmf->write_function(*problem.fibre(), stepping.t_start);
+  }
+  auto write_fields = [&](double t)
+  {
+    if (!xdmf)
+      return;
+    xdmf->write_function(*problem.u(), t);
+    const MuscleProblem::PostFields post = problem.post_fields();
+    for (auto& f : {post.fibre_stretch, post.fibre_stress, post.von_mises, post.J})
+      xdmf->write_function(*f, t);
+  };
+  if (!options.resume)
+    write_fields(0.0);
+  else
+    write_fields(stepping.t_start);
+
+  const int steps = step + static_cast<int>(std::ceil(
+                               (stepping.t_end - stepping.t_start) / stepping.dt - 1e-9));
+  const int first_step = step;
+  std::vector<double> last(scene.output.series.size(), 0.0);
+  auto failure = stepper.run(
+      [&](const StepRecord& r)
+      {
+        ++step;
+        total_newton += r.newton_iterations;
+        total_linear += r.linear_iterations;
+        total_cutbacks += r.cutbacks;
+        if (need_nodal_forces)
+          solver.assemble_nodal_forces(nodal);
+        for (std::size_t k = 0; k < measure.size(); ++k)
+          last[k] = measure[k]();
+        const double elapsed = previous_wall + seconds_since(start);
+        if (is_root())
+        {
+          series << r.t;
+          for (double v : last)
+            series << "," << v;
+          series << "," << r.newton_iterations << "," << r.linear_iterations << ","
+                 << r.cutbacks << "," << r.residual << "," << elapsed << std::endl;
+        }
+        if (!options.quiet and is_root())
+        {
+          std::string values;
+          for (std::size_t k = 0; k < last.size() and k < 3; ++k)
+          {
+            char text[64];
+            std::snprintf(text, sizeof text, "  %s=%.6g", scene.output.series[k].name.c_str(),
+                          last[k]);
+            values += text;
+          }
+          const double run_time = seconds_since(start);
+          std::printf("t=%.4f s  step %d/%d  newton %2d  |R|=%.1e%s%s  %.1f s, ETA %.0f s\n",
+                      r.t, step, steps, r.newton_iterations, r.residual, values.c_str(),
+                      r.cutbacks ? ("  (" + std::to_string(r.cutbacks) + " cutbacks)").c_str()
+                                 : "",
+                      elapsed, run_time / (step - first_step) * (steps - step));
+          std::fflush(stdout);
+        }
+        if (step % scene.output.fields_every == 0 or step == steps)
+          write_fields(r.t);
+        if (step % scene.output.checkpoint_every == 0 or step == steps)
+          write_checkpoint(*problem.u(), options.out,
+                           {{"step", step}, {"t", r.t}, {"next_substep", r.next_substep},
+                            {"successes", r.successes}, {"newton_iterations", total_newton},
+                            {"linear_iterations", total_linear}, {"cutbacks", total_cutbacks},
+                            {"wall_time", elapsed},
+                            {"scene_fingerprint", fingerprint(scene.physics)}});
+        return true;
+      });
+
+  // The last converged state is kept whatever happened
+  if (scene.output.surface)
+  {
+    const MuscleProblem::PostFields post = problem.post_fields();
+    export_deformed_surface(*problem.u(), *post.fibre_stretch, options.out + "/surface.json");
+  }
+  if (is_root())
+  {
+    nlohmann::json summary = {
+        {"scene", scene.file}, {"title", scene.title}, {"model", to_string(part.parameters.model())},
+        {"cells", gm.num_cells}, {"nodes", gm.num_nodes}, {"degree", scene.mesh.degree},
+        {"dt", scene.time.dt}, {"t_end", scene.time.t_end}, {"steps", step},
+        {"newton_iterations", total_newton}, {"linear_iterations", total_linear},
+        {"cutbacks", total_cutbacks}, {"wall_time", previous_wall + seconds_since(start)},
+        {"resumed", options.resume}, {"ranks", dolfinx::MPI::size(MPI_COMM_WORLD)},
+        {"completed", !failure}, {"built", built},
+        {"fields", scene.output.fields ? fields_path : ""}};
+    for (std::size_t k = 0; k < last.size(); ++k)
+      summary["final"][scene.output.series[k].name] = last[k];
+    if (!assembly.is_null())
+      summary["assembly"] = assembly;
+    if (failure)
+      summary["failure"] = {{"t_converged", failure->t_converged},
+                            {"t_attempted", failure->t_attempted},
+                            {"reason", failure->reason}, {"where", failure->where},
+                            {"newton_iterations", failure->newton_iterations},
+                            {"cutbacks", failure->cutbacks}};
+    std::ofstream(options.out + "/summary.json") << summary.dump(1) << "\n";
+  }
+  if (series.is_open())
+    series.close();
+  if (scene.output.plots and !scene.output.series.empty())
+    run_plot_script("demos/scene/plot_series.py",
+                    {options.out + "/series.png", series_path, scene.title});
+  if (failure)
+    throw SolveError("Newton failed at step " + std::to_string(failure->step) + " going from t = "
+                     + std::to_string(failure->t_converged) + " to "
+                     + std::to_string(failure->t_attempted) + " s (" + failure->reason + "; "
+                     + std::to_string(failure->cutbacks) + " cutbacks, "
+                     + std::to_string(failure->newton_iterations) + " Newton iterations); "
+                     + failure->where + ". The state at t = "
+                     + std::to_string(failure->t_converged) + " s is written to " + options.out + ". Try: "
+                     + failure->advice + ".");
+}
+
+} // namespace muscle

@@ -1,0 +1,171 @@
+#pragma once
+
+#include "../fem/nonlinear_solver.h"
+#include "../fem/time_stepping.h"
+#include "../material/parameters.h"
+#include "expression.h"
+
+#include <array>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace muscle
+{
+
+/// Where a value came from in a scene file, for messages.
+struct SceneLocation
+{
+  std::string file;
+  int line = 0;   ///< 1-based; 0 unknown
+  std::string key; ///< dotted path, e.g. parts[0].material.model
+  std::string text() const;
+};
+
+/// A function of time: the material's own activation (tanh for BLE/COMBI, the
+/// twitch train for WKM/GIANT), a constant, a linear ramp, a piecewise-linear
+/// table or a formula of t.
+struct TimeFunction
+{
+  enum class Kind
+  {
+    model,
+    constant,
+    ramp,
+    table,
+    expression
+  } kind = Kind::model;
+  double value = 0;                         ///< constant; ramp end value
+  double start = 0, duration = 0;           ///< ramp: 0 before start, value after
+  std::vector<std::array<double, 2>> table; ///< (t, value), increasing t
+  std::optional<Expression> formula;        ///< of t
+
+  /// `model_factor` is the material's time factor at t (Kind::model only).
+  double operator()(double t, double model_factor = 0) const;
+};
+
+/// The spatial distribution of the activation over the cells.
+struct ActivationScale
+{
+  enum class Kind
+  {
+    constant,
+    groups,     ///< per physical volume
+    expression, ///< of x, y, z, t (re-evaluated every step if it uses t)
+    file        ///< values at points, nearest point per cell, optionally in time
+  } kind = Kind::constant;
+  double value = 1;
+  std::map<std::string, double> groups;
+  double other = 0; ///< groups: cells in no listed group
+  std::optional<Expression> formula;
+  std::string path; ///< file: CSV x,y,z,scale or x,y,z,<t1>,<t2>...
+  SceneLocation where;
+};
+
+struct FibreSpec
+{
+  enum class Kind
+  {
+    direction,
+    laplace,
+    file ///< CSV x,y,z,a1,a2,a3: nearest point per cell
+  } kind = Kind::direction;
+  std::array<double, 3> direction = {0, 0, 1};
+  std::string from, to; ///< laplace: surface names
+  std::string path;
+  SceneLocation where;
+};
+
+struct Part
+{
+  std::string name;
+  ParameterSet parameters{Model::combi};
+  bool active = true; ///< false: passive forms only, no activation kernel
+  FibreSpec fibres;
+  TimeFunction activation_time;
+  ActivationScale activation_scale;
+  SceneLocation where;
+};
+
+struct BoundaryCondition
+{
+  enum class Kind
+  {
+    clamp,
+    displacement,   ///< one component prescribed, value(t) in mm
+    uniform_axial,  ///< one component equal on the surface, unknown value
+  } kind = Kind::clamp;
+  std::string surface;
+  int component = 2;
+  TimeFunction value; ///< displacement
+  SceneLocation where;
+};
+
+/// One column of series.csv.
+struct SeriesQuantity
+{
+  enum class Kind
+  {
+    activation,   ///< time factor of the first active part
+    reaction,     ///< force the body exerts on a Dirichlet surface [mN]
+    section_force,///< force through an interior surface [mN]
+    displacement, ///< mean displacement of a surface's nodes [mm]
+    stretch_ratio,///< 1 + displacement / length
+    volume_change,///< V/V0 - 1
+    min_J         ///< smallest J at the quadrature points
+  } kind;
+  std::string name, surface;
+  int component = 2;
+  double length = 1; ///< stretch_ratio
+  double sign = 1;   ///< reaction: +1 force on the body by the support
+  SceneLocation where;
+};
+
+struct MeshSpec
+{
+  std::string path; ///< .geo or .msh, absolute
+  std::map<std::string, double> numbers; ///< Gmsh -setnumber
+  std::string cell = "hex";
+  int degree = 1;
+  int quadrature_degree = -1;
+  SceneLocation where;
+};
+
+struct OutputSpec
+{
+  std::vector<SeriesQuantity> series;
+  bool fields = true;
+  int fields_every = 1;
+  bool plots = true;
+  bool surface = true; ///< surface.json for tools/render_surface.py
+  int checkpoint_every = 1;
+};
+
+struct Scene
+{
+  std::string file;   ///< the scene file
+  std::string title;
+  std::string text;   ///< verbatim
+  /// mesh, element, parts and boundary as read: what a checkpoint must match
+  /// (time, solver and output settings may change between a stop and --resume)
+  std::string physics;
+  MeshSpec mesh;
+  std::vector<Part> parts;
+  std::vector<BoundaryCondition> boundary;
+  TimeSteppingOptions time;
+  NewtonOptions newton;
+  std::vector<std::string> petsc_options;
+  OutputSpec output;
+};
+
+/// Read and check a scene (nothing is meshed or solved).  Every mistake is an
+/// InputError "FILE:LINE: KEY: what is wrong; what is allowed".
+Scene read_scene(const std::string& path);
+
+/// The same from text; `name` is used in messages and relative paths are
+/// resolved against `directory`.
+Scene parse_scene(const std::string& text, const std::string& name,
+                  const std::string& directory);
+
+} // namespace muscle

@@ -1,0 +1,719 @@
+// Scene files: YAML -> Scene, with every mistake reported as
+// "FILE:LINE: KEY: what is wrong; what is allowed".
+#include "scene.h"
+
+#include "../common/errors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <yaml-cpp/yaml.h>
+
+namespace muscle
+{
+
+std::string SceneLocation::text() const
+{
+  std::string s = file;
+  if (line > 0)
+    s += ":" + std::to_string(line);
+  if (!key.empty())
+    s += ": " + key;
+  return s;
+}
+
+double TimeFunction::operator()(double t, double model_factor) const
+{
+  switch (kind)
+  {
+  case Kind::model:
+    return model_factor;
+  case Kind::constant:
+    return value;
+  case Kind::ramp:
+    if (duration <= 0)
+      return t >= start ? value : 0.0;
+    return value * std::clamp((t - start) / duration, 0.0, 1.0);
+  case Kind::table:
+  {
+    if (t <= table.front()[0])
+      return table.front()[1];
+    for (std::size_t k = 1; k < table.size(); ++k)
+      if (t <= table[k][0])
+      {
+        const double s = (t - table[k - 1][0]) / (table[k][0] - table[k - 1][0]);
+        return (1 - s) * table[k - 1][1] + s * table[k][1];
+      }
+    return table.back()[1];
+  }
+  default:
+    return (*formula)(&t);
+  }
+}
+
+namespace
+{
+/// A YAML node and where it is: every accessor checks and reports in place.
+class Entry
+{
+public:
+  Entry(YAML::Node node, std::string key, const std::string& file, int parent_line)
+      : _node(node), _key(std::move(key)), _file(file),
+        _line(node.IsDefined() and node.Mark().line >= 0 ? node.Mark().line + 1
+                                                         : parent_line)
+  {
+  }
+
+  bool defined() const { return _node.IsDefined() and !_node.IsNull(); }
+  bool is_map() const { return _node.IsMap(); }
+  bool is_sequence() const { return _node.IsSequence(); }
+  bool is_scalar() const { return _node.IsScalar(); }
+  const std::string& key() const { return _key; }
+
+  SceneLocation where() const { return {_file, _line, _key}; }
+
+  [[noreturn]] void fail(const std::string& what) const
+  {
+    throw InputError(where().text() + ": " + what);
+  }
+
+  std::string shown() const
+  {
+    if (_node.IsScalar())
+      return "'" + _node.Scalar() + "'";
+    if (_node.IsSequence())
+      return "a list";
+    if (_node.IsMap())
+      return "a mapping";
+    return "nothing";
+  }
+
+  /// Child of a mapping; `allowed` lists every key this mapping may have.
+  Entry operator[](const std::string& name) const
+  {
+    return Entry(_node.IsMap() ? _node[name] : YAML::Node(YAML::NodeType::Undefined),
+                 _key.empty() ? name : _key + "." + name, _file, _line);
+  }
+
+  Entry at(std::size_t i) const
+  {
+    return Entry(_node[i], _key + "[" + std::to_string(i) + "]", _file, _line);
+  }
+  std::size_t size() const { return _node.size(); }
+
+  /// A mapping whose keys are all in `allowed`.
+  const Entry& require_map(const std::vector<std::string>& allowed) const
+  {
+    if (!_node.IsMap())
+      fail("expected a mapping with keys " + join(allowed) + ", found " + shown());
+    for (auto it = _node.begin(); it != _node.end(); ++it)
+    {
+      if (!it->first.IsScalar())
+        fail("keys must be names");
+      const std::string k = it->first.Scalar();
+      if (std::find(allowed.begin(), allowed.end(), k) == allowed.end())
+      {
+        Entry child(it->second, _key.empty() ? k : _key + "." + k, _file,
+                    it->first.Mark().line + 1);
+        child.fail("unknown key '" + k + "'" + did_you_mean(k, allowed)
+                   + "; allowed here: " + join(allowed));
+      }
+    }
+    return *this;
+  }
+
+  std::vector<std::string> keys() const
+  {
+    std::vector<std::string> k;
+    if (_node.IsMap())
+      for (auto it = _node.begin(); it != _node.end(); ++it)
+        k.push_back(it->first.Scalar());
+    return k;
+  }
+
+  /// The one key present out of alternatives (e.g. clamp | displacement).
+  std::string one_of(const std::vector<std::string>& alternatives) const
+  {
+    std::string found;
+    for (const std::string& k : keys())
+      if (std::find(alternatives.begin(), alternatives.end(), k) != alternatives.end())
+      {
+        if (!found.empty())
+          fail("give only one of " + join(alternatives) + " (found '" + found + "' and '" + k
+               + "')");
+        found = k;
+      }
+    if (found.empty())
+      fail("expected one of " + join(alternatives));
+    return found;
+  }
+
+  std::string text() const
+  {
+    if (!_node.IsScalar())
+      fail("expected a text value, found " + shown());
+    return _node.Scalar();
+  }
+  std::string text(const std::string& fallback) const
+  {
+    return defined() ? text() : fallback;
+  }
+
+  std::string choice(const std::vector<std::string>& allowed) const
+  {
+    const std::string v = text();
+    if (std::find(allowed.begin(), allowed.end(), v) == allowed.end())
+      fail("'" + v + "' is not allowed; allowed: " + join(allowed) + did_you_mean(v, allowed));
+    return v;
+  }
+
+  double number() const
+  {
+    if (!_node.IsScalar())
+      fail("expected a number, found " + shown());
+    const std::string& s = _node.Scalar();
+    std::size_t used = 0;
+    double v = std::numeric_limits<double>::quiet_NaN();
+    try
+    {
+      v = std::stod(s, &used);
+    }
+    catch (const std::exception&)
+    {
+      used = 0;
+    }
+    if (used == 0 or used != s.size())
+      fail("'" + s + "' is not a number");
+    if (!std::isfinite(v))
+      fail("'" + s + "' is not a finite number");
+    return v;
+  }
+  double number(double fallback) const { return defined() ? number() : fallback; }
+
+  double positive(double fallback) const
+  {
+    const double v = number(fallback);
+    if (!(v > 0))
+      fail("'" + text() + "' must be > 0");
+    return v;
+  }
+
+  int integer(int fallback, int lower, int upper) const
+  {
+    if (!defined())
+      return fallback;
+    const double v = number();
+    if (v != std::floor(v) or v < lower or v > upper)
+      fail("'" + text() + "' must be an integer from " + std::to_string(lower) + " to "
+           + std::to_string(upper));
+    return static_cast<int>(v);
+  }
+
+  bool flag(bool fallback) const
+  {
+    if (!defined())
+      return fallback;
+    const std::string v = text();
+    if (v == "true" or v == "yes" or v == "on")
+      return true;
+    if (v == "false" or v == "no" or v == "off")
+      return false;
+    fail("'" + v + "' is not allowed; allowed: true, false");
+  }
+
+  Entry required(const std::string& name) const
+  {
+    Entry e = (*this)[name];
+    if (!e.defined())
+      fail("missing key '" + name + "'");
+    return e;
+  }
+
+private:
+  YAML::Node _node;
+  std::string _key;
+  const std::string& _file;
+  int _line;
+};
+
+int parse_component(const Entry& e)
+{
+  const std::string c = e.choice({"x", "y", "z", "0", "1", "2"});
+  return c == "x" or c == "0" ? 0 : c == "y" or c == "1" ? 1 : 2;
+}
+
+std::string resolve(const std::string& directory, const std::string& path)
+{
+  std::filesystem::path p(path);
+  return p.is_absolute() ? path : (std::filesystem::path(directory) / p).lexically_normal().string();
+}
+
+std::string existing_file(const Entry& e, const std::string& directory)
+{
+  const std::string path = resolve(directory, e.text());
+  if (!std::filesystem::is_regular_file(path))
+    e.fail("file '" + e.text() + "' not found (looked for " + path + ")");
+  return path;
+}
+
+Expression expression(const Entry& e, const std::vector<std::string>& variables)
+{
+  try
+  {
+    return Expression(e.text(), variables);
+  }
+  catch (const InputError& error)
+  {
+    e.fail(error.what());
+  }
+}
+
+TimeFunction time_function(const Entry& e, bool allow_model)
+{
+  TimeFunction f;
+  if (e.is_scalar())
+  {
+    if (e.text() == "model")
+    {
+      if (!allow_model)
+        e.fail("'model' (the material's own activation) is only allowed for activation.time");
+      return f;
+    }
+    f.kind = TimeFunction::Kind::constant;
+    f.value = e.number();
+    return f;
+  }
+  std::vector<std::string> kinds = {"constant", "ramp", "table", "expression"};
+  if (allow_model)
+    kinds.insert(kinds.begin(), "model");
+  if (!e.is_map())
+    e.fail("expected a time function (" + join(kinds) + "), found " + e.shown());
+  e.require_map(kinds);
+  const std::string kind = e.one_of(kinds);
+  const Entry v = e[kind];
+  if (kind == "model")
+    return f;
+  if (kind == "constant")
+  {
+    f.kind = TimeFunction::Kind::constant;
+    f.value = v.number();
+  }
+  else if (kind == "ramp")
+  {
+    f.kind = TimeFunction::Kind::ramp;
+    v.require_map({"start", "duration", "value"});
+    f.start = v["start"].number(0);
+    f.duration = v["duration"].number(0);
+    if (f.duration < 0)
+      v["duration"].fail("'" + v["duration"].text() + "' must be >= 0");
+    f.value = v.required("value").number();
+  }
+  else if (kind == "table")
+  {
+    f.kind = TimeFunction::Kind::table;
+    if (!v.is_sequence() or v.size() == 0)
+      v.fail("expected a list of [t, value] pairs, found " + v.shown());
+    for (std::size_t i = 0; i < v.size(); ++i)
+    {
+      const Entry row = v.at(i);
+      if (!row.is_sequence() or row.size() != 2)
+        row.fail("expected [t, value], found " + row.shown());
+      const double t = row.at(0).number();
+      if (!f.table.empty() and !(t > f.table.back()[0]))
+        row.at(0).fail("times must increase (" + row.at(0).text() + " after "
+                       + std::to_string(f.table.back()[0]) + ")");
+      f.table.push_back({t, row.at(1).number()});
+    }
+  }
+  else
+  {
+    f.kind = TimeFunction::Kind::expression;
+    f.formula = expression(v, {"t"});
+  }
+  return f;
+}
+
+void read_material(const Entry& e, Part& part, const std::string& directory)
+{
+  e.require_map({"model", "parameters", "parameter_file", "active"});
+  const std::vector<std::string> models = {"ble", "wkm", "giant", "combi"};
+  const Entry model = e.required("model");
+  part.parameters = ParameterSet(parse_model(model.choice(models)));
+  part.active = e["active"].flag(true);
+  if (e["parameter_file"].defined())
+  {
+    const Entry f = e["parameter_file"];
+    const std::string path = existing_file(f, directory);
+    std::ifstream in(path);
+    std::string line;
+    int number = 0;
+    while (std::getline(in, line))
+    {
+      ++number;
+      line.erase(0, line.find_first_not_of(" \t"));
+      if (line.empty() or line[0] == '#')
+        continue;
+      try
+      {
+        part.parameters.set_assignment(line);
+      }
+      catch (const InputError& error)
+      {
+        throw InputError(path + ":" + std::to_string(number) + ": " + error.what()
+                         + " (read for " + f.where().text() + ")");
+      }
+    }
+  }
+  const Entry p = e["parameters"];
+  if (p.defined())
+  {
+    p.require_map(part.parameters.names());
+    for (const std::string& name : p.keys())
+      part.parameters.set(name, p[name].number());
+  }
+  try
+  {
+    part.parameters.validate();
+  }
+  catch (const InputError& error)
+  {
+    (p.defined() ? p : e).fail(error.what());
+  }
+}
+
+FibreSpec read_fibres(const Entry& e, const std::string& directory)
+{
+  FibreSpec f;
+  f.where = e.where();
+  if (!e.defined())
+    return f; // along z
+  e.require_map({"direction", "laplace", "file"});
+  const std::string kind = e.one_of({"direction", "laplace", "file"});
+  const Entry v = e[kind];
+  if (kind == "direction")
+  {
+    f.kind = FibreSpec::Kind::direction;
+    if (!v.is_sequence() or v.size() != 3)
+      v.fail("expected [a1, a2, a3], found " + v.shown());
+    for (int i = 0; i < 3; ++i)
+      f.direction[i] = v.at(i).number();
+    if (f.direction[0] == 0 and f.direction[1] == 0 and f.direction[2] == 0)
+      v.fail("the fibre direction must not be zero");
+  }
+  else if (kind == "laplace")
+  {
+    f.kind = FibreSpec::Kind::laplace;
+    v.require_map({"from", "to"});
+    f.from = v.required("from").text();
+    f.to = v.required("to").text();
+    if (f.from == f.to)
+      v["to"].fail("'from' and 'to' must be different surfaces");
+  }
+  else
+  {
+    f.kind = FibreSpec::Kind::file;
+    f.path = existing_file(v, directory);
+  }
+  f.where = v.where();
+  return f;
+}
+
+ActivationScale read_scale(const Entry& e, const std::string& directory)
+{
+  ActivationScale s;
+  s.where = e.where();
+  if (!e.defined())
+    return s;
+  if (e.is_scalar())
+  {
+    s.value = e.number();
+    if (s.value < 0)
+      e.fail("'" + e.text() + "' must be >= 0");
+    return s;
+  }
+  e.require_map({"constant", "groups", "other", "expression", "file"});
+  const std::string kind = e.one_of({"constant", "groups", "expression", "file"});
+  const Entry v = e[kind];
+  s.where = v.where();
+  if (kind == "constant")
+    s.value = v.number();
+  else if (kind == "groups")
+  {
+    s.kind = ActivationScale::Kind::groups;
+    if (!v.is_map())
+      v.fail("expected a mapping 'volume group: scale', found " + v.shown());
+    for (const std::string& name : v.keys())
+    {
+      s.groups[name] = v[name].number();
+      if (s.groups[name] < 0)
+        v[name].fail("'" + v[name].text() + "' must be >= 0");
+    }
+    s.other = e["other"].number(0);
+  }
+  else if (kind == "expression")
+  {
+    s.kind = ActivationScale::Kind::expression;
+    s.formula = expression(v, {"x", "y", "z", "t"});
+  }
+  else
+  {
+    s.kind = ActivationScale::Kind::file;
+    s.path = existing_file(v, directory);
+  }
+  if (kind != "groups" and e["other"].defined())
+    e["other"].fail("'other' goes with 'groups' only");
+  if (s.value < 0)
+    v.fail("'" + v.text() + "' must be >= 0");
+  return s;
+}
+
+Part read_part(const Entry& e, const std::string& directory)
+{
+  e.require_map({"name", "material", "fibres", "activation"});
+  Part part;
+  part.where = e.where();
+  part.name = e["name"].text("muscle");
+  read_material(e.required("material"), part, directory);
+  part.fibres = read_fibres(e["fibres"], directory);
+  const Entry a = e["activation"];
+  if (a.defined())
+  {
+    a.require_map({"time", "scale"});
+    if (!part.active)
+      a.fail("a passive part (material.active: false) has no activation; remove this "
+             "entry or set active: true");
+    if (a["time"].defined())
+      part.activation_time = time_function(a["time"], true);
+    part.activation_scale = read_scale(a["scale"], directory);
+  }
+  return part;
+}
+
+BoundaryCondition read_condition(const Entry& e)
+{
+  const std::vector<std::string> kinds = {"clamp", "displacement", "uniform_axial"};
+  if (!e.is_map())
+    e.fail("expected a condition (" + join(kinds) + ": SURFACE, ...), found " + e.shown());
+  const std::string kind = e.one_of(kinds);
+  BoundaryCondition bc;
+  bc.where = e.where();
+  bc.surface = e[kind].text();
+  if (kind == "clamp")
+  {
+    e.require_map({"clamp"});
+    bc.kind = BoundaryCondition::Kind::clamp;
+  }
+  else if (kind == "displacement")
+  {
+    e.require_map({"displacement", "component", "value"});
+    bc.kind = BoundaryCondition::Kind::displacement;
+    bc.component = parse_component(e.required("component"));
+    bc.value = time_function(e.required("value"), false);
+  }
+  else
+  {
+    e.require_map({"uniform_axial", "component"});
+    bc.kind = BoundaryCondition::Kind::uniform_axial;
+    bc.component = parse_component(e.required("component"));
+  }
+  return bc;
+}
+
+SeriesQuantity read_quantity(const Entry& e)
+{
+  e.require_map({"name", "quantity", "surface", "component", "length", "side"});
+  SeriesQuantity q;
+  q.where = e.where();
+  const std::vector<std::string> kinds = {"activation", "reaction", "section_force",
+                                          "displacement", "stretch_ratio", "volume_change",
+                                          "min_J"};
+  const std::string kind = e.required("quantity").choice(kinds);
+  q.kind = static_cast<SeriesQuantity::Kind>(
+      std::find(kinds.begin(), kinds.end(), kind) - kinds.begin());
+  q.name = e["name"].text(kind);
+  const bool on_surface = kind == "reaction" or kind == "section_force"
+                          or kind == "displacement" or kind == "stretch_ratio";
+  if (on_surface)
+  {
+    q.surface = e.required("surface").text();
+    q.component = parse_component(e.required("component"));
+  }
+  else
+    for (const char* k : {"surface", "component"})
+      if (e[k].defined())
+        e[k].fail("'" + kind + "' is not measured on a surface; remove '" + k + "'");
+  if (kind == "stretch_ratio")
+    q.length = e.required("length").positive(1);
+  else if (e["length"].defined())
+    e["length"].fail("'length' goes with stretch_ratio only");
+  if (kind == "section_force")
+    q.sign = e["side"].defined() and e["side"].choice({"below", "above"}) == "above" ? -1 : 1;
+  else if (e["side"].defined())
+    e["side"].fail("'side' goes with section_force only");
+  return q;
+}
+} // namespace
+
+Scene parse_scene(const std::string& text, const std::string& name,
+                  const std::string& directory)
+{
+  YAML::Node root;
+  try
+  {
+    root = YAML::Load(text);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw InputError(name + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  Scene scene;
+  scene.file = name;
+  scene.text = text;
+  const Entry top(root, "", name, 1);
+  if (!top.is_map())
+    top.fail("a scene is a mapping with keys title, mesh, element, parts, boundary, time, "
+             "solver, output; found " + top.shown());
+  top.require_map({"title", "mesh", "element", "parts", "boundary", "time", "solver", "output"});
+  scene.title = top["title"].text(std::filesystem::path(name).stem().string());
+  for (const char* k : {"element", "parts", "boundary"})
+    scene.physics += std::string(k) + ":\n" + YAML::Dump(root[k]) + "\n";
+
+  // mesh and element
+  const Entry m = top.required("mesh");
+  m.require_map({"file", "set"});
+  scene.mesh.where = m.where();
+  const Entry mf = m.required("file");
+  scene.mesh.path = existing_file(mf, directory);
+  const std::string ext = std::filesystem::path(scene.mesh.path).extension().string();
+  if (ext != ".geo" and ext != ".msh")
+    mf.fail("'" + mf.text() + "' must be a Gmsh .geo or .msh file");
+  if (m["set"].defined())
+  {
+    if (!m["set"].is_map())
+      m["set"].fail("expected a mapping NAME: NUMBER (Gmsh -setnumber), found "
+                    + m["set"].shown());
+    if (ext != ".geo")
+      m["set"].fail("numbers can only be set for a .geo file");
+    for (const std::string& k : m["set"].keys())
+      scene.mesh.numbers[k] = m["set"][k].number();
+  }
+  // the mesh by its resolved path: a copy of the scene elsewhere still matches
+  scene.physics += "mesh: " + scene.mesh.path + "\n";
+  for (const auto& [k, v] : scene.mesh.numbers)
+    scene.physics += k + "=" + std::to_string(v) + "\n";
+  const Entry el = top["element"];
+  if (el.defined())
+  {
+    el.require_map({"degree", "quadrature_degree"});
+    scene.mesh.degree = el["degree"].integer(1, 1, 2);
+    scene.mesh.quadrature_degree = el["quadrature_degree"].integer(-1, 1, 12);
+  }
+
+  // parts
+  const Entry parts = top.required("parts");
+  if (!parts.is_sequence() or parts.size() == 0)
+    parts.fail("expected a list of parts, found " + parts.shown());
+  if (parts.size() > 1)
+    parts.at(1).fail("this version solves one part per scene (the whole mesh); found "
+                     + std::to_string(parts.size()));
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    scene.parts.push_back(read_part(parts.at(i), directory));
+
+  // boundary conditions
+  const Entry b = top.required("boundary");
+  if (!b.is_sequence() or b.size() == 0)
+    b.fail("expected a list of conditions (clamp, displacement, uniform_axial), found "
+           + b.shown());
+  for (std::size_t i = 0; i < b.size(); ++i)
+    scene.boundary.push_back(read_condition(b.at(i)));
+  int constraints = 0;
+  for (const BoundaryCondition& bc : scene.boundary)
+    if (bc.kind == BoundaryCondition::Kind::uniform_axial and ++constraints > 1)
+      throw InputError(bc.where.text() + ": only one uniform_axial condition per scene");
+
+  // time
+  const Entry t = top.required("time");
+  t.require_map({"end", "step", "max_cutbacks", "cutback_factor", "growth_factor"});
+  scene.time.t_end = t.required("end").positive(0);
+  scene.time.dt = t.required("step").positive(0);
+  if (scene.time.dt > scene.time.t_end)
+    t["step"].fail("'" + t["step"].text() + "' is longer than the simulated time");
+  scene.time.max_cutbacks = t["max_cutbacks"].integer(8, 0, 40);
+  scene.time.cutback_factor = t["cutback_factor"].number(0.5);
+  if (!(scene.time.cutback_factor > 0 and scene.time.cutback_factor < 1))
+    t["cutback_factor"].fail("'" + t["cutback_factor"].text() + "' must be between 0 and 1");
+  scene.time.growth_factor = t["growth_factor"].number(1.5);
+  if (!(scene.time.growth_factor >= 1))
+    t["growth_factor"].fail("'" + t["growth_factor"].text() + "' must be >= 1");
+
+  // solver
+  scene.newton.line_search = "cp";
+  const Entry s = top["solver"];
+  if (s.defined())
+  {
+    s.require_map({"linear", "line_search", "rtol", "atol", "max_iterations",
+                   "stagnation_window", "petsc"});
+    scene.newton.linear_solver = s["linear"].defined()
+                                     ? s["linear"].choice({"lu", "gmres-hypre", "gmres-gamg"})
+                                     : "lu";
+    if (s["line_search"].defined())
+      scene.newton.line_search = s["line_search"].choice({"cp", "bt", "basic", "l2"});
+    scene.newton.rtol = s["rtol"].positive(scene.newton.rtol);
+    scene.newton.atol = s["atol"].positive(scene.newton.atol);
+    scene.newton.max_iterations = s["max_iterations"].integer(25, 1, 1000);
+    scene.newton.stagnation_window
+        = s["stagnation_window"].integer(scene.newton.stagnation_window, 0, 1000);
+    if (s["petsc"].defined())
+    {
+      std::istringstream words(s["petsc"].text());
+      for (std::string w; words >> w;)
+        scene.petsc_options.push_back(w);
+      if (!scene.petsc_options.empty() and scene.petsc_options[0][0] != '-')
+        s["petsc"].fail("PETSc options start with '-', e.g. \"-snes_monitor -ksp_type gmres\"");
+    }
+  }
+
+  // output
+  const Entry o = top["output"];
+  if (o.defined())
+  {
+    o.require_map({"series", "fields", "fields_every", "plots", "surface", "checkpoint_every"});
+    if (o["series"].defined())
+    {
+      const Entry q = o["series"];
+      if (!q.is_sequence())
+        q.fail("expected a list of quantities, found " + q.shown());
+      std::set<std::string> names;
+      for (std::size_t i = 0; i < q.size(); ++i)
+      {
+        scene.output.series.push_back(read_quantity(q.at(i)));
+        if (!names.insert(scene.output.series.back().name).second)
+          q.at(i)["name"].fail("two columns named '" + scene.output.series.back().name + "'");
+      }
+    }
+    scene.output.fields = o["fields"].flag(true);
+    scene.output.fields_every = o["fields_every"].integer(1, 1, 1000000);
+    scene.output.plots = o["plots"].flag(true);
+    scene.output.surface = o["surface"].flag(true);
+    scene.output.checkpoint_every = o["checkpoint_every"].integer(1, 1, 1000000);
+  }
+  return scene;
+}
+
+Scene read_scene(const std::string& path)
+{
+  std::ifstream in(path);
+  if (!std::filesystem::is_regular_file(path) or !in)
+    throw InputError(path + ": scene file not found");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string directory
+      = std::filesystem::absolute(path).parent_path().string();
+  return parse_scene(text.str(), path, directory);
+}
+
+} // namespace muscle

@@ -1,0 +1,84 @@
+// muscle-run: run a muscle scene described in a YAML file.
+//
+//   muscle-run SCENE.yaml [--out DIR] [--resume] [--quiet] [--check]
+//              [--t-end T] [--measure-assembly N] [PETSc options]
+//
+// Reads and checks the whole scene before building anything, builds only what
+// the scene needs, and writes DIR/series.csv, fields.xdmf, summary.json,
+// series.png, surface.json and a checkpoint after every converged step.
+// Example scenes: demos/scenes/*.yaml.
+#include <common/application.h>
+#include <common/errors.h>
+#include <scene/runner.h>
+#include <scene/scene.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <petscsys.h>
+
+using namespace muscle;
+
+int main(int argc, char** argv)
+{
+  return run_application(argc, argv, [](std::vector<std::string> args) {
+    std::string path;
+    RunOptions options;
+    CLI::App app{"Run a muscle scene (YAML).  PETSc options (-snes_monitor, -ksp_type ...) "
+                 "are passed through; the scene's solver.petsc options come first."};
+    app.add_option("scene", path, "scene file, e.g. demos/scenes/fusiform_isometric.yaml")
+        ->required();
+    app.add_option("--out", options.out, "output directory (default: out/<scene name>)");
+    app.add_flag("--resume", options.resume,
+                 "continue a stopped run from the checkpoint in the output directory");
+    app.add_flag("--quiet", options.quiet, "no progress lines");
+    app.add_flag("--check", options.check_only,
+                 "read the scene and build the mesh, surfaces and forms; solve nothing");
+    double t_end = -1;
+    app.add_option("--t-end", t_end, "stop at this time instead of the scene's time.end "
+                   "(a short look at a long scene)");
+    app.add_option("--measure-assembly", options.measure_assembly,
+                   "time N residual/Jacobian assemblies of the scene's forms and of the plain "
+                   "passive forms before the run");
+    std::reverse(args.begin(), args.end());
+    try
+    {
+      app.parse(args);
+    }
+    catch (const CLI::CallForHelp&)
+    {
+      std::printf("%s", app.help().c_str());
+      return 0;
+    }
+    catch (const CLI::ParseError& e)
+    {
+      throw InputError(e.what());
+    }
+    Scene scene = read_scene(path);
+    if (t_end != -1)
+    {
+      if (!(t_end > 0))
+        throw InputError("--t-end " + std::to_string(t_end) + ": must be > 0");
+      scene.time.t_end = t_end;
+      scene.time.dt = std::min(scene.time.dt, t_end);
+    }
+    if (options.out.empty())
+      options.out = "out/" + std::filesystem::path(path).stem().string();
+    // the scene's PETSc options; the command line's win (inserted afterwards)
+    for (std::size_t i = 0; i < scene.petsc_options.size(); ++i)
+    {
+      const std::string& name = scene.petsc_options[i];
+      if (name[0] != '-')
+        continue;
+      const bool has_value = i + 1 < scene.petsc_options.size()
+                             and scene.petsc_options[i + 1][0] != '-';
+      PetscBool set = PETSC_FALSE;
+      PetscOptionsHasName(nullptr, nullptr, name.c_str(), &set);
+      if (!set)
+        PetscOptionsSetValue(nullptr, name.c_str(),
+                             has_value ? scene.petsc_options[i + 1].c_str() : nullptr);
+    }
+    run_scene(scene, options);
+    return 0;
+  });
+}
