@@ -148,11 +148,15 @@ ExactResponse exact_response(const MaterialPointModel& model, LoadCase c,
     if (r_lo * r_hi > 0)
       throw SolveError("UTCTF: no lateral stretch balances P_33 at stretch "
                        + std::to_string(s));
-    std::uintmax_t iterations = 100;
-    const auto [a0, a1] = boost::math::tools::toms748_solve(
-        residual, lo, hi, r_lo, r_hi,
-        boost::math::tools::eps_tolerance<double>(50), iterations);
-    const double a = 0.5 * (a0 + a1);
+    double a = r_lo == 0 ? lo : hi; // an exact root at the guess (e.g. s = 1)
+    if (r_lo != 0 and r_hi != 0)
+    {
+      std::uintmax_t iterations = 100;
+      const auto [a0, a1] = boost::math::tools::toms748_solve(
+          residual, lo, hi, r_lo, r_hi,
+          boost::math::tools::eps_tolerance<double>(50), iterations);
+      a = 0.5 * (a0 + a1);
+    }
     const Matrix3 P = model.stress(point_at(deformation_gradient(c, s, a)));
     const double p = a * P[4];
     return {P[0] - p / s, p, a};
