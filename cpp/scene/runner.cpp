@@ -407,6 +407,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
   }
   if (options.check_only)
     return;
+  const double setup_time = seconds_since(start); // mesh, fibres, forms, constraint
 
   // Time stepping state, from a checkpoint when resuming
   TimeSteppingOptions stepping = scene.time;
@@ -504,6 +505,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
                                (stepping.t_end - stepping.t_start) / stepping.dt - 1e-9));
   const int first_step = step;
   std::vector<double> last(scene.output.series.size(), 0.0);
+  const auto stepping_start = Clock::now();
+  double output_time = 0; // series, fields, checkpoints
   auto failure = stepper.run(
       [&](const StepRecord& r)
       {
@@ -511,6 +514,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
         total_newton += r.newton_iterations;
         total_linear += r.linear_iterations;
         total_cutbacks += r.cutbacks;
+        const auto output_start = Clock::now();
         if (need_nodal_forces)
           solver.assemble_nodal_forces(nodal);
         for (std::size_t k = 0; k < measure.size(); ++k)
@@ -551,9 +555,11 @@ void run_scene(const Scene& scene, const RunOptions& options)
                             {"linear_iterations", total_linear}, {"cutbacks", total_cutbacks},
                             {"wall_time", elapsed},
                             {"scene_fingerprint", fingerprint(scene.physics)}});
+        output_time += seconds_since(output_start);
         return true;
       });
 
+  const double stepping_time = seconds_since(stepping_start);
   // The last converged state is kept whatever happened
   if (scene.output.surface)
   {
@@ -570,6 +576,9 @@ void run_scene(const Scene& scene, const RunOptions& options)
         {"cutbacks", total_cutbacks}, {"wall_time", previous_wall + seconds_since(start)},
         {"resumed", options.resume}, {"ranks", dolfinx::MPI::size(MPI_COMM_WORLD)},
         {"completed", !failure}, {"built", built},
+        {"timings", {{"setup_s", setup_time},
+                     {"solve_s", stepping_time - output_time},
+                     {"output_s", output_time}}},
         {"fields", scene.output.fields ? fields_path : ""}};
     for (std::size_t k = 0; k < last.size(); ++k)
       summary["final"][scene.output.series[k].name] = last[k];
