@@ -261,7 +261,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
   // Boundary conditions
   auto V = problem.V();
   std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs;
-  std::vector<std::pair<std::shared_ptr<fem::Constant<double>>, const TimeFunction*>> moving;
+  std::vector<std::pair<std::shared_ptr<fem::Constant<double>>, const BoundaryCondition*>> moving;
   std::shared_ptr<UniformDisplacementConstraint> constraint;
   std::set<std::string> supports; // surfaces with Dirichlet values (reactions)
   for (const BoundaryCondition& bc : scene.boundary)
@@ -273,7 +273,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
     else if (bc.kind == BoundaryCondition::Kind::displacement)
     {
       auto value = std::make_shared<fem::Constant<double>>(bc.value(0.0));
-      moving.push_back({value, &bc.value});
+      moving.push_back({value, &bc});
       bcs.push_back(prescribe_component(V, facets, bc.component, value));
     }
     else
@@ -405,8 +405,6 @@ void run_scene(const Scene& scene, const RunOptions& options)
                     assembly[k]["residual_s"].get<double>(), assembly[k]["jacobian_s"].get<double>(),
                     assembly[k]["activation_kernel_s"].get<double>(), options.measure_assembly);
   }
-  if (options.check_only)
-    return;
   const double setup_time = seconds_since(start); // mesh, fibres, forms, constraint
 
   // Time stepping state, from a checkpoint when resuming
@@ -452,9 +450,25 @@ void run_scene(const Scene& scene, const RunOptions& options)
       problem.set_time_factor(part.activation_time(t, model_factor));
       scale->update(t);
     }
-    for (auto& [constant, function] : moving)
-      constant->value = {(*function)(t)};
+    for (auto& [constant, bc] : moving)
+      constant->value = {bc->value(t)};
   };
+  // Formulas and tables are checked at every output time before the first
+  // solve: a negative activation at t = 0.1 s should not cost a run to 0.1 s.
+  for (double t = stepping.t_start; t <= stepping.t_end + 1e-12 * stepping.dt; t += stepping.dt)
+  {
+    set_time(t); // the scale field checks itself
+    const double a = problem.time_factor();
+    if (part.active and !(std::isfinite(a) and a >= 0))
+      throw InputError(part.where.text() + ": activation.time is " + std::to_string(a)
+                       + " at t = " + std::to_string(t) + "; it must be finite and >= 0");
+    for (auto& [constant, bc] : moving)
+      if (!std::isfinite(constant->value[0]))
+        throw InputError(bc->where.text() + ": the prescribed displacement is "
+                         + std::to_string(constant->value[0]) + " at t = " + std::to_string(t));
+  }
+  if (options.check_only)
+    return;
   set_time(stepping.t_start);
   problem.update_activation();
 

@@ -182,6 +182,14 @@ BROKEN = [
     ("quadrature degree not compiled", B, "{degree: 2}", "{degree: 2, quadrature_degree: 3}",
      ["element", "no compiled kernels"], False),
     ("a second part", B, "boundary:", "  - {material: {model: ble}}\nboundary:", ["parts[1]", "one part per scene"], True),
+    ("activation negative later on", B, "time: model", "time: {table: [[0, 0], [0.05, 1], [0.08, -1]]}",
+     ["parts[0]", "activation.time is -", "t = 0.07"], False),
+    ("scale formula negative later on", B, "scale: {groups: {lower: 1.0, upper: 0.5}}",
+     "scale: {expression: \"1 - 20*t\"}", ["activation.scale.expression", "must be finite and >= 0",
+                                            "t = 0.06"], True),
+    ("displacement formula not finite", B, "{displacement: top, component: x, value: 0}",
+     "{displacement: top, component: x, value: {expression: \"sqrt(0.05 - t)\"}}",
+     ["boundary[1]", "prescribed displacement is", "nan", "t = 0.06"], True),
     ("scene is a list", B, "title:", "- title:", ["a scene is a mapping"], False),
 ]
 
