@@ -15,11 +15,11 @@
 // so `loadcases --set $(cat MODEL.params)` reads it), report.txt (also printed),
 // fit.json, fit_points.csv, fit_curves.csv and fit.png.
 #include <common/application.h>
+#include <common/command_line.h>
 #include <common/errors.h>
 #include <fit/fit.h>
 #include <io/plotting.h>
 
-#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -222,20 +222,8 @@ int main(int argc, char** argv)
     app.add_option("--noise", noise, "synthesize: Gaussian noise, sd = NOISE x max|P| per curve")
         ->capture_default_str();
     app.add_option("--seed", seed, "synthesize: random seed")->capture_default_str();
-    std::reverse(args.begin(), args.end());
-    try
-    {
-      app.parse(args);
-    }
-    catch (const CLI::CallForHelp& e)
-    {
-      std::printf("%s", app.help().c_str());
+    if (!parse_command_line(app, std::move(args)))
       return 0;
-    }
-    catch (const CLI::ParseError& e)
-    {
-      throw InputError(e.what());
-    }
 
     const Model model = parse_model(model_name);
     ParameterSet start(model);

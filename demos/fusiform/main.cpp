@@ -15,6 +15,7 @@
 // Writes DIR/series.csv, DIR/fields.xdmf, DIR/summary.json, DIR/series.png and
 // DIR/surface.json (deformed surface for tools/render).
 #include <common/application.h>
+#include <common/command_line.h>
 #include <common/errors.h>
 #include <fem/boundary.h>
 #include <fem/condition_number.h>
@@ -28,7 +29,6 @@
 #include <io/surface_export.h>
 #include <material/time_functions.h>
 
-#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
 #include <dolfinx/fem/assembler.h>
@@ -100,20 +100,8 @@ Settings parse(std::vector<std::string> args)
   app.add_flag("--quiet", s.quiet, "no progress lines");
   app.add_flag("--condition-number", s.condition_number,
                "estimate the condition number of the last Newton matrix (SLEPc)");
-  std::reverse(args.begin(), args.end());
-  try
-  {
-    app.parse(args);
-  }
-  catch (const CLI::CallForHelp&)
-  {
-    std::printf("%s", app.help().c_str());
+  if (!parse_command_line(app, std::move(args)))
     std::exit(0);
-  }
-  catch (const CLI::ParseError& e)
-  {
-    throw InputError(e.what());
-  }
   if (s.load != "isometric" and s.load != "free")
     throw InputError("--case '" + s.load + "': allowed: isometric, free");
   if (s.refinement < 1 or s.refinement > 8)

@@ -15,11 +15,11 @@
 // "active" is the tetanic level: time factor 1 (for WKM/GIANT, P_opt is the
 // twitch train's tetanic level unless set with --set P_opt=...).
 #include <common/application.h>
+#include <common/command_line.h>
 #include <common/errors.h>
 #include <io/plotting.h>
 #include <loadcases/curve.h>
 
-#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -117,20 +117,8 @@ int main(int argc, char** argv)
     app.add_option("--degree", fe.discretisation.degree, "FE displacement degree (1 or 2)")
         ->capture_default_str();
     app.add_flag("--quiet", quiet, "no tables on stdout");
-    std::reverse(args.begin(), args.end());
-    try
-    {
-      app.parse(args);
-    }
-    catch (const CLI::CallForHelp& e)
-    {
-      std::printf("%s", app.help().c_str());
+    if (!parse_command_line(app, std::move(args)))
       return 0;
-    }
-    catch (const CLI::ParseError& e)
-    {
-      throw InputError(e.what());
-    }
 
     const auto models = parse_list<Model>(model_list, all_models(), parse_model);
     const auto cases = parse_list<LoadCase>(case_list, all_load_cases(), parse_load_case);

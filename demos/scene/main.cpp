@@ -8,11 +8,11 @@
 // series.png, surface.json and a checkpoint after every converged step.
 // Example scenes: demos/scenes/*.yaml.
 #include <common/application.h>
+#include <common/command_line.h>
 #include <common/errors.h>
 #include <scene/runner.h>
 #include <scene/scene.h>
 
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
 #include <petscsys.h>
@@ -40,20 +40,8 @@ int main(int argc, char** argv)
     app.add_option("--measure-assembly", options.measure_assembly,
                    "time N residual/Jacobian assemblies of the scene's forms and of the plain "
                    "passive forms before the run");
-    std::reverse(args.begin(), args.end());
-    try
-    {
-      app.parse(args);
-    }
-    catch (const CLI::CallForHelp&)
-    {
-      std::printf("%s", app.help().c_str());
+    if (!parse_command_line(app, std::move(args)))
       return 0;
-    }
-    catch (const CLI::ParseError& e)
-    {
-      throw InputError(e.what());
-    }
     Scene scene = read_scene(path);
     if (t_end != -1)
     {
