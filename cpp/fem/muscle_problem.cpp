@@ -29,20 +29,38 @@ std::int32_t num_local_cells(const mesh::Mesh& mesh, bool with_ghosts)
   return map->size_local() + (with_ghosts ? map->num_ghosts() : 0);
 }
 
-std::vector<std::int32_t> local_cells(const mesh::Mesh& mesh, bool with_ghosts)
+using Kernel = std::function<void(double*, const double*, const double*, const double*,
+                                  const int*, const std::uint8_t*)>;
+
+/// The same form with its one cell integral restricted to the cells tagged
+/// `value` (same kernel, coefficients and constants).
+std::shared_ptr<fem::Form<double>> restricted(const ufcx_form& form,
+                                              const fem::Form<double>& full,
+                                              const mesh::MeshTags<std::int32_t>& tags,
+                                              int value)
 {
-  std::vector<std::int32_t> cells(num_local_cells(mesh, with_ghosts));
-  std::iota(cells.begin(), cells.end(), 0);
-  return cells;
+  if (form.num_integrals(cell) != 1)
+    throw std::logic_error("expected one cell integral");
+  std::map<fem::IntegralType,
+           std::pair<std::vector<std::pair<int, Kernel>>, const mesh::MeshTags<int>*>>
+      integrals;
+  integrals[fem::IntegralType::cell]
+      = {{{value, form.integrals(cell)[0]->tabulate_tensor_float64}}, &tags};
+  return std::make_shared<fem::Form<double>>(full.function_spaces(), integrals,
+                                             full.coefficients(), full.constants(), false,
+                                             full.mesh());
 }
 } // namespace
 
 MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
                              const ParameterSet& parameters,
-                             Discretisation discretisation, bool passive)
+                             Discretisation discretisation, bool passive,
+                             std::optional<CellRegion> region,
+                             std::shared_ptr<fem::Function<double>> u)
     : _mesh(mesh), _parameters(parameters), _passive(passive),
       _kernels(passive ? passive_kernels(parameters.model())
-                       : to_string(parameters.model()))
+                       : to_string(parameters.model())),
+      _region(region)
 {
   const std::string cell = mesh::to_string(mesh->topology().cell_type());
   _variant = &forms::find_fe_variant(_kernels, cell, discretisation.degree,
@@ -51,8 +69,34 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
 
   _V = std::make_shared<fem::FunctionSpace>(
       fem::create_functionspace(v.function_space, "u", mesh));
-  _u = std::make_shared<fem::Function<double>>(_V);
-  _u->name = "displacement";
+  if (u)
+  {
+    // a part of a body: the displacement of the whole body
+    if (u->function_space()->dofmap()->index_map->size_global()
+        != _V->dofmap()->index_map->size_global())
+      throw std::logic_error("parts of a body must share one displacement element");
+    _V = std::const_pointer_cast<fem::FunctionSpace>(u->function_space());
+    _u = u;
+  }
+  else
+  {
+    _u = std::make_shared<fem::Function<double>>(_V);
+    _u->name = "displacement";
+  }
+  const std::int32_t num_owned = num_local_cells(*mesh, false);
+  if (region)
+  {
+    for (std::size_t i = 0; i < region->tags->indices().size(); ++i)
+      if (region->tags->values()[i] == region->value)
+        _cells.push_back(region->tags->indices()[i]);
+  }
+  else
+  {
+    _cells.resize(num_local_cells(*mesh, true));
+    std::iota(_cells.begin(), _cells.end(), 0);
+  }
+  std::copy_if(_cells.begin(), _cells.end(), std::back_inserter(_owned_cells),
+               [num_owned](std::int32_t c) { return c < num_owned; });
   _fibre = std::make_shared<fem::Function<double>>(cell_space(3));
   _fibre->name = "fibre";
   _scale = std::make_shared<fem::Function<double>>(cell_space(1));
@@ -90,6 +134,12 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
       fem::create_form<double>(*v.jacobian, {_V, _V}, coefficients, constants, {}));
   _volume = std::make_shared<fem::Form<double>>(
       fem::create_form<double>(*v.volume, {}, coefficients, constants, {}, mesh));
+  if (region)
+  {
+    _residual = restricted(*v.residual, *_residual, *region->tags, region->value);
+    _jacobian = restricted(*v.jacobian, *_jacobian, *region->tags, region->value);
+    _volume = restricted(*v.volume, *_volume, *region->tags, region->value);
+  }
   if (v.fibre_stretch)
   {
     _stretch_expression = std::make_shared<fem::Expression<double>>(
@@ -141,20 +191,7 @@ void MuscleProblem::set_fibre(const fem::Function<double>& fibre)
 std::shared_ptr<fem::Form<double>> MuscleProblem::residual_on_cells(
     std::shared_ptr<const mesh::MeshTags<std::int32_t>> cells, int value) const
 {
-  const ufcx_form& form = *_variant->residual;
-  if (form.num_integrals(cell) != 1)
-    throw std::logic_error("residual form: expected one cell integral");
-  ufcx_integral* integral = form.integrals(cell)[0];
-  using Kernel = std::function<void(double*, const double*, const double*,
-                                    const double*, const int*, const std::uint8_t*)>;
-  std::map<fem::IntegralType,
-           std::pair<std::vector<std::pair<int, Kernel>>, const mesh::MeshTags<int>*>>
-      integrals;
-  integrals[fem::IntegralType::cell]
-      = {{{value, integral->tabulate_tensor_float64}}, cells.get()};
-  return std::make_shared<fem::Form<double>>(
-      std::vector<std::shared_ptr<const fem::FunctionSpace>>{_V}, integrals,
-      _residual->coefficients(), _residual->constants(), false);
+  return restricted(*_variant->residual, *_residual, *cells, value);
 }
 
 void MuscleProblem::set_time_factor(double factor)
@@ -171,7 +208,7 @@ KernelStatus MuscleProblem::update_activation()
 
   // fibre stretch at the quadrature points of owned and ghost cells: every
   // rank evaluates its ghosts itself, so no communication is needed
-  const std::vector<std::int32_t> cells = local_cells(*_mesh, true);
+  const std::vector<std::int32_t>& cells = _cells;
   const std::size_t nq = _quadrature_weights.size();
   xt::xtensor<double, 2> stretch({cells.size(), nq});
   _stretch_expression->eval(std::span<const std::int32_t>(cells), stretch);
@@ -190,14 +227,15 @@ KernelStatus MuscleProblem::update_activation()
   std::span<double> lambda0 = get("omega_a_lambda"), w0 = get("omega_a"),
                     w1 = get("domega_a"), w2 = get("d2omega_a");
 
-  for (std::size_t c = 0; c < cells.size(); ++c)
+  for (std::size_t i = 0; i < cells.size(); ++i)
   {
+    const std::int32_t c = cells[i];
     const double level = activation_level(
         _parameters, _time_factor, scale[scale_dofmap.cell_dofs(c)[0]]);
     auto dofs = dofmap.cell_dofs(c);
     for (std::size_t q = 0; q < nq; ++q)
     {
-      const double l = stretch(c, q);
+      const double l = stretch(i, q);
       const OmegaTaylor w = activation_kernel(model, l, level, p);
       if (!w.ok)
       {
@@ -228,7 +266,7 @@ double MuscleProblem::volume() const
 
 MuscleProblem::PostFields MuscleProblem::post_fields() const
 {
-  const std::vector<std::int32_t> cells = local_cells(*_mesh, false);
+  const std::vector<std::int32_t>& cells = _owned_cells;
   const std::size_t nq = _quadrature_weights.size();
   xt::xtensor<double, 2> values({cells.size(), 4 * nq});
   _post_expression->eval(std::span<const std::int32_t>(cells), values);
@@ -250,7 +288,7 @@ MuscleProblem::PostFields MuscleProblem::post_fields() const
       double average = 0;
       for (std::size_t q = 0; q < nq; ++q)
         average += _quadrature_weights[q] * values(c, 4 * q + k);
-      x[space->dofmap()->cell_dofs(c)[0]] = average / weight_sum;
+      x[space->dofmap()->cell_dofs(cells[c])[0]] = average / weight_sum;
     }
     (*fields[k])->x()->scatter_fwd();
   }
@@ -259,7 +297,7 @@ MuscleProblem::PostFields MuscleProblem::post_fields() const
 
 std::pair<double, std::int32_t> MuscleProblem::min_jacobian_determinant() const
 {
-  const std::vector<std::int32_t> cells = local_cells(*_mesh, false);
+  const std::vector<std::int32_t>& cells = _owned_cells;
   const std::size_t nq = _quadrature_weights.size();
   xt::xtensor<double, 2> values({cells.size(), 4 * nq});
   _post_expression->eval(std::span<const std::int32_t>(cells), values);
@@ -269,7 +307,7 @@ std::pair<double, std::int32_t> MuscleProblem::min_jacobian_determinant() const
     {
       const double J = values(c, 4 * q + 3);
       if (!(J >= worst.first)) // NaN counts as worst
-        worst = {J, static_cast<std::int32_t>(c)};
+        worst = {J, cells[c]};
     }
   return worst;
 }

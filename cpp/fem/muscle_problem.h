@@ -10,6 +10,7 @@
 #include <dolfinx/fem/FunctionSpace.h>
 #include <dolfinx/mesh/Mesh.h>
 #include <map>
+#include <optional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -37,6 +38,13 @@ struct KernelStatus
   bool ok() const { return failures == 0; }
 };
 
+/// The cells a part of a body occupies: those of `tags` with `value`.
+struct CellRegion
+{
+  std::shared_ptr<const dolfinx::mesh::MeshTags<std::int32_t>> tags;
+  int value = 0;
+};
+
 /// One muscle body: displacement space, material forms (residual, Jacobian,
 /// volume), fibre and activation-scale fields, and -- for WKM and GIANT -- the
 /// quadrature-point activation kernel that feeds omega_a to the forms.
@@ -47,9 +55,13 @@ class MuscleProblem
 {
 public:
   /// `passive`: build the passive-only forms (ble_passive / ehret_passive).
+  /// A part of a body of several materials gives its `region` (the forms,
+  /// kernels and post-processing see only those cells) and the displacement
+  /// `u` it shares with the other parts (same element).
   MuscleProblem(std::shared_ptr<dolfinx::mesh::Mesh> mesh,
                 const ParameterSet& parameters, Discretisation discretisation,
-                bool passive = false);
+                bool passive = false, std::optional<CellRegion> region = std::nullopt,
+                std::shared_ptr<dolfinx::fem::Function<double>> u = nullptr);
 
   const ParameterSet& parameters() const { return _parameters; }
   bool passive() const { return _passive; }
@@ -85,6 +97,7 @@ public:
   /// The residual assembled over the cells tagged `value` only (same kernel):
   /// summing it over the nodes of an interface gives the force the rest of the
   /// body transmits through it, the variationally consistent section force.
+  /// (A part of a body: tag only cells of its region with `value`.)
   std::shared_ptr<dolfinx::fem::Form<double>>
   residual_on_cells(std::shared_ptr<const dolfinx::mesh::MeshTags<std::int32_t>> cells,
                     int value) const;
@@ -95,8 +108,12 @@ public:
   /// Current volume of the body.
   double volume() const;
 
+  /// Local cells (owned and ghost) this problem integrates over.
+  const std::vector<std::int32_t>& cells() const { return _cells; }
+
   /// Cell averages (reference quadrature weights) of the fibre stretch,
-  /// Cauchy fibre stress sigma_m, von Mises stress and J, as DG0 functions.
+  /// Cauchy fibre stress sigma_m, von Mises stress and J, as DG0 functions
+  /// (zero outside the problem's cells).
   struct PostFields
   {
     std::shared_ptr<dolfinx::fem::Function<double>> fibre_stretch, fibre_stress,
@@ -125,6 +142,8 @@ private:
   std::shared_ptr<dolfinx::fem::Form<double>> _residual, _jacobian, _volume;
   std::shared_ptr<dolfinx::fem::Expression<double>> _stretch_expression, _post_expression;
   std::vector<double> _quadrature_weights;
+  std::vector<std::int32_t> _cells, _owned_cells;
+  std::optional<CellRegion> _region;
 };
 
 } // namespace muscle

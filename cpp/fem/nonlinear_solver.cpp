@@ -52,16 +52,38 @@ NonlinearSolver::NonlinearSolver(
     std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs,
     std::shared_ptr<const UniformDisplacementConstraint> constraint,
     NewtonOptions options)
-    : _problem(problem), _bcs(std::move(bcs)), _constraint(std::move(constraint)),
-      _options(std::move(options)),
-      _b(problem.V()->dofmap()->index_map, problem.V()->dofmap()->index_map_bs())
+    : NonlinearSolver(std::vector<MuscleProblem*>{&problem}, std::move(bcs),
+                      std::move(constraint), std::move(options))
 {
+}
+
+NonlinearSolver::NonlinearSolver(
+    std::vector<MuscleProblem*> parts,
+    std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs,
+    std::shared_ptr<const UniformDisplacementConstraint> constraint,
+    NewtonOptions options)
+    : _parts(std::move(parts)), _problem(*_parts.at(0)), _bcs(std::move(bcs)),
+      _constraint(std::move(constraint)), _options(std::move(options)),
+      _b(_problem.V()->dofmap()->index_map, _problem.V()->dofmap()->index_map_bs())
+{
+  MuscleProblem& problem = _problem;
   auto V = problem.V();
   auto map = V->dofmap()->index_map;
   const int bs = V->dofmap()->index_map_bs();
   MPI_Comm comm = map->comm();
 
-  _A = fem::petsc::create_matrix(*problem.jacobian(), "aij");
+  if (_parts.size() == 1)
+    _A = fem::petsc::create_matrix(*problem.jacobian(), "aij");
+  else
+  {
+    // every cell couples its dofs, whichever part it belongs to
+    const auto& dofmap = *V->dofmap();
+    la::SparsityPattern pattern = fem::create_sparsity_pattern(
+        problem.mesh()->topology(), {std::cref(dofmap), std::cref(dofmap)},
+        {fem::IntegralType::cell});
+    pattern.assemble();
+    _A = la::petsc::create_matrix(comm, pattern, "aij");
+  }
   _b_petsc = la::petsc::create_vector_wrap(_b);
   VecCreateMPIWithArray(comm, 1, bs * map->size_local(), PETSC_DETERMINE,
                         _b.mutable_array().data(), &_F_full);
@@ -74,7 +96,7 @@ NonlinearSolver::NonlinearSolver(
     _x = _constraint->create_reduced_vector();
     VecDuplicate(_x, &F);
     // P^T A P needs an assembled A for its symbolic phase
-    _problem.update_activation();
+    update_activation();
     assemble_full_jacobian();
     MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
     J = _A_red;
@@ -158,15 +180,44 @@ void NonlinearSolver::set_state(Vec x)
     VecCopy(x, _u_petsc);
     u->x()->scatter_fwd();
   }
-  _last_kernel = _problem.update_activation();
+  _last_kernel = update_activation();
 }
 
 void NonlinearSolver::assemble_nodal_forces(la::Vector<double>& b) const
 {
   std::fill(b.mutable_array().begin(), b.mutable_array().end(), 0.0);
-  fem::assemble_vector<double>(b.mutable_array(), *_problem.residual());
+  for (MuscleProblem* part : _parts)
+    fem::assemble_vector<double>(b.mutable_array(), *part->residual());
   b.scatter_rev(std::plus<double>());
   b.scatter_fwd();
+}
+
+KernelStatus NonlinearSolver::update_activation()
+{
+  KernelStatus status;
+  for (MuscleProblem* part : _parts)
+  {
+    const KernelStatus s = part->update_activation();
+    if (status.failures == 0)
+    {
+      status.worst_cell = s.worst_cell;
+      status.stretch = s.stretch;
+    }
+    status.failures += s.failures;
+  }
+  return status;
+}
+
+std::pair<double, std::int32_t> NonlinearSolver::min_jacobian_determinant() const
+{
+  std::pair<double, std::int32_t> worst{std::numeric_limits<double>::infinity(), -1};
+  for (const MuscleProblem* part : _parts)
+  {
+    const auto m = part->min_jacobian_determinant();
+    if (!(m.first >= worst.first))
+      worst = m;
+  }
+  return worst;
 }
 
 PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void* ctx)
@@ -175,9 +226,12 @@ PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void*
   self->set_state(x);
   std::span<double> b = self->_b.mutable_array();
   std::fill(b.begin(), b.end(), 0.0);
-  fem::assemble_vector<double>(b, *self->_problem.residual());
   std::span<const double> u = self->_problem.u()->x()->array();
-  fem::apply_lifting<double>(b, {self->_problem.jacobian()}, {self->_bcs}, {u}, -1.0);
+  for (MuscleProblem* part : self->_parts)
+  {
+    fem::assemble_vector<double>(b, *part->residual());
+    fem::apply_lifting<double>(b, {part->jacobian()}, {self->_bcs}, {u}, -1.0);
+  }
   self->_b.scatter_rev(std::plus<double>());
   fem::set_bc<double>(b, self->_bcs, u, -1.0);
 
@@ -200,8 +254,9 @@ void NonlinearSolver::assemble_full_jacobian()
 {
   Mat A = _A;
   MatZeroEntries(A);
-  fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES),
-                       *_problem.jacobian(), _bcs);
+  for (MuscleProblem* part : _parts)
+    fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES), *part->jacobian(),
+                         _bcs);
   MatAssemblyBegin(A, MAT_FLUSH_ASSEMBLY);
   MatAssemblyEnd(A, MAT_FLUSH_ASSEMBLY);
   fem::set_diagonal<double>(la::petsc::Matrix::set_fn(A, INSERT_VALUES),

@@ -63,6 +63,13 @@ public:
                   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> bcs,
                   std::shared_ptr<const UniformDisplacementConstraint> constraint = nullptr,
                   NewtonOptions options = {});
+
+  /// A body of several parts (regions of one mesh with their own material)
+  /// sharing one displacement: residuals and Jacobians are summed.
+  NonlinearSolver(std::vector<MuscleProblem*> parts,
+                  std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> bcs,
+                  std::shared_ptr<const UniformDisplacementConstraint> constraint = nullptr,
+                  NewtonOptions options = {});
   ~NonlinearSolver();
   NonlinearSolver(const NonlinearSolver&) = delete;
   NonlinearSolver& operator=(const NonlinearSolver&) = delete;
@@ -78,6 +85,12 @@ public:
   /// ghost entries, ghosts accumulated): nodal forces, e.g. reactions.
   void assemble_nodal_forces(dolfinx::la::Vector<double>& b) const;
 
+  /// Activation kernels of every part at the current displacement.
+  KernelStatus update_activation();
+
+  /// Smallest J over the quadrature points of every part's local cells.
+  std::pair<double, std::int32_t> min_jacobian_determinant() const;
+
 private:
   static PetscErrorCode residual_callback(SNES, Vec x, Vec F, void* ctx);
   static PetscErrorCode jacobian_callback(SNES, Vec x, Mat J, Mat P, void* ctx);
@@ -87,7 +100,8 @@ private:
                                          SNESConvergedReason* reason, void* ctx);
   void set_state(Vec x);
 
-  MuscleProblem& _problem;
+  std::vector<MuscleProblem*> _parts;
+  MuscleProblem& _problem; ///< the first part: displacement, space, mesh
   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> _bcs;
   std::shared_ptr<const UniformDisplacementConstraint> _constraint;
   NewtonOptions _options;

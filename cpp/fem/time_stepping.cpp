@@ -42,7 +42,7 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
     f.reason += ", non-finite residual";
   const auto mesh = _problem.mesh();
   // worst element at the failed iterate (collective)
-  auto [J, cell] = _problem.min_jacobian_determinant();
+  auto [J, cell] = _solver.min_jacobian_determinant();
   struct
   {
     double value;
@@ -112,7 +112,7 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
       std::copy(converged.begin(), converged.end(), u.mutable_array().begin());
       u.scatter_fwd();
       _set_time(t);
-      _problem.update_activation();
+      _solver.update_activation();
       successes = 0;
       ++record.cutbacks;
       h *= _options.cutback_factor;

@@ -52,15 +52,16 @@ std::vector<std::int32_t> all_cells(const mesh::Mesh& mesh)
 class ScaleField
 {
 public:
-  ScaleField(const ActivationScale& spec, const GmshMesh& gm, fem::Function<double>& scale)
+  /// `cells`: the local cells of the part the scale belongs to.
+  ScaleField(const ActivationScale& spec, const GmshMesh& gm, fem::Function<double>& scale,
+             const std::vector<std::int32_t>& cells)
       : _spec(spec), _scale(scale)
   {
     const auto& mesh = *gm.mesh;
-    const std::vector<std::int32_t> cells = all_cells(mesh);
     _midpoints = mesh::compute_midpoints(mesh, 3, cells);
     _dofs.resize(cells.size());
     for (std::size_t c = 0; c < cells.size(); ++c)
-      _dofs[c] = scale.function_space()->dofmap()->cell_dofs(c)[0];
+      _dofs[c] = scale.function_space()->dofmap()->cell_dofs(cells[c])[0];
     if (spec.kind == ActivationScale::Kind::groups)
     {
       std::map<int, double> by_tag;
@@ -77,12 +78,14 @@ public:
         }
         by_tag[it->second] = value;
       }
+      // cell -> physical volume tag (the Gmsh reader tags every local cell)
+      std::map<std::int32_t, int> tag_of;
+      for (std::size_t i = 0; i < gm.cell_tags->indices().size(); ++i)
+        tag_of[gm.cell_tags->indices()[i]] = gm.cell_tags->values()[i];
       _fixed.assign(cells.size(), spec.other);
-      const auto tags = gm.cell_tags->values();
-      const auto indices = gm.cell_tags->indices();
-      for (std::size_t i = 0; i < indices.size(); ++i)
-        if (auto it = by_tag.find(tags[i]); it != by_tag.end())
-          _fixed[indices[i]] = it->second;
+      for (std::size_t c = 0; c < cells.size(); ++c)
+        if (auto it = by_tag.find(tag_of[cells[c]]); it != by_tag.end())
+          _fixed[c] = it->second;
     }
     else if (spec.kind == ActivationScale::Kind::file)
     {
@@ -215,12 +218,56 @@ nlohmann::json time_assembly(MuscleProblem& problem, int count)
           {"residual_s", median(residual)},
           {"jacobian_s", median(jacobian)}};
 }
+/// Cells tagged with their part (index + 1) from the parts' volume groups;
+/// null for a single part over the whole mesh.
+std::shared_ptr<mesh::MeshTags<std::int32_t>> assign_parts(const Scene& scene,
+                                                           const GmshMesh& gm)
+{
+  if (scene.parts.size() == 1 and scene.parts[0].volumes.empty())
+    return nullptr;
+  std::vector<std::string> names;
+  for (const auto& [n, _] : gm.volumes)
+    names.push_back(n);
+  std::map<int, int> part_of_tag;
+  std::map<int, std::string> owner;
+  for (std::size_t p = 0; p < scene.parts.size(); ++p)
+    for (const std::string& v : scene.parts[p].volumes)
+    {
+      auto it = gm.volumes.find(v);
+      if (it == gm.volumes.end())
+        throw InputError(scene.parts[p].where.text() + ".volumes: the mesh has no volume group '"
+                         + v + "'; it has: " + join(names) + did_you_mean(v, names));
+      if (part_of_tag.count(it->second))
+        throw InputError(scene.parts[p].where.text() + ".volumes: '" + v
+                         + "' already belongs to part '" + owner[it->second] + "'");
+      part_of_tag[it->second] = static_cast<int>(p) + 1;
+      owner[it->second] = scene.parts[p].name;
+    }
+  const std::vector<std::int32_t> cells = all_cells(*gm.mesh);
+  std::vector<std::int32_t> values(cells.size(), 0);
+  for (std::size_t i = 0; i < gm.cell_tags->indices().size(); ++i)
+    if (auto it = part_of_tag.find(gm.cell_tags->values()[i]); it != part_of_tag.end())
+      values[gm.cell_tags->indices()[i]] = it->second;
+  const std::int32_t owned = gm.mesh->topology().index_map(3)->size_local();
+  std::int64_t orphans = std::count(values.begin(), values.begin() + owned, 0), total = 0;
+  MPI_Allreduce(&orphans, &total, 1, MPI_INT64_T, MPI_SUM, gm.mesh->comm());
+  if (total > 0)
+  {
+    std::vector<std::string> free;
+    for (const auto& [n, t] : gm.volumes)
+      if (!part_of_tag.count(t))
+        free.push_back(n);
+    throw InputError(scene.file + ": parts: " + std::to_string(total)
+                     + " cells belong to no part (volume groups in no part: "
+                     + (free.empty() ? "none; cells without a volume group" : join(free)) + ")");
+  }
+  return std::make_shared<mesh::MeshTags<std::int32_t>>(gm.mesh, 3, cells, values);
+}
 } // namespace
 
 void run_scene(const Scene& scene, const RunOptions& options)
 {
   const auto start = Clock::now();
-  const Part& part = scene.parts.front();
   std::filesystem::create_directories(options.out);
 
   // Mesh with its named surfaces and volumes
@@ -238,25 +285,53 @@ void run_scene(const Scene& scene, const RunOptions& options)
     }
   };
 
-  // The material: passive forms for a passive part, the activation kernel
-  // only for WKM/GIANT, the twitch train only if the time function asks for it
-  std::unique_ptr<MuscleProblem> problem_owner;
-  try
+  // The materials, one problem per part (several parts share the first one's
+  // displacement and integrate over their own cells): passive forms for a
+  // passive part, the activation kernel only for WKM/GIANT, the twitch train
+  // only if the time function asks for it
+  const auto part_tags = assign_parts(scene, gm);
+  std::vector<std::unique_ptr<MuscleProblem>> problems;
+  std::vector<MuscleProblem*> body;
+  std::vector<std::unique_ptr<ScaleField>> scales;
+  std::vector<bool> model_time;
+  for (std::size_t p = 0; p < scene.parts.size(); ++p)
   {
-    problem_owner = std::make_unique<MuscleProblem>(
-        mesh, part.parameters, Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree},
-        !part.active);
+    const Part& part = scene.parts[p];
+    std::optional<CellRegion> region;
+    if (part_tags)
+      region = CellRegion{part_tags, static_cast<int>(p) + 1};
+    try
+    {
+      problems.push_back(std::make_unique<MuscleProblem>(
+          mesh, part.parameters, Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree},
+          !part.active, region, p > 0 ? problems[0]->u() : nullptr));
+    }
+    catch (const InputError& e)
+    {
+      throw InputError(scene.file + ": element: " + e.what());
+    }
+    body.push_back(problems.back().get());
+    set_fibres(part.fibres, gm, *problems.back(), surface);
+    scales.push_back(part.active ? std::make_unique<ScaleField>(
+                                       part.activation_scale, gm,
+                                       *problems.back()->activation_scale(),
+                                       problems.back()->cells())
+                                 : nullptr);
+    model_time.push_back(part.active
+                         and part.activation_time.kind == TimeFunction::Kind::model);
   }
-  catch (const InputError& e)
+  MuscleProblem& problem = *problems[0]; // holds the displacement
+  const MuscleProblem* first_active = nullptr;
+  for (std::size_t p = 0; p < body.size() and !first_active; ++p)
+    if (scene.parts[p].active)
+      first_active = body[p];
+  auto total_volume = [&]
   {
-    throw InputError(scene.file + ": element: " + e.what());
-  }
-  MuscleProblem& problem = *problem_owner;
-  set_fibres(part.fibres, gm, problem, surface);
-  std::unique_ptr<ScaleField> scale;
-  if (part.active)
-    scale = std::make_unique<ScaleField>(part.activation_scale, gm, *problem.activation_scale());
-  const bool model_time = part.active and part.activation_time.kind == TimeFunction::Kind::model;
+    double v = 0;
+    for (const MuscleProblem* part : body)
+      v += part->volume();
+    return v;
+  };
 
   // Boundary conditions
   auto V = problem.V();
@@ -283,7 +358,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
 
   // Series quantities
   la::Vector<double> nodal(V->dofmap()->index_map, V->dofmap()->index_map_bs());
-  const double volume0 = problem.volume();
+  const double volume0 = total_volume();
   std::vector<std::function<double()>> measure;
   std::vector<std::shared_ptr<fem::Form<double>>> keep_forms;
   std::vector<std::shared_ptr<mesh::MeshTags<std::int32_t>>> keep_tags;
@@ -302,7 +377,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
     switch (q.kind)
     {
     case K::activation:
-      measure.push_back([&] { return problem.time_factor(); });
+      measure.push_back([first_active] { return first_active ? first_active->time_factor() : 0.0; });
       break;
     case K::reaction:
       if (!supports.count(q.surface))
@@ -324,19 +399,28 @@ void run_scene(const Scene& scene, const RunOptions& options)
       const double level = global[0] / global[1];
       const std::vector<std::int32_t> cells = all_cells(*mesh);
       const std::vector<double> cm = mesh::compute_midpoints(*mesh, 3, cells);
-      std::vector<std::int32_t> side(cells.size());
-      for (std::size_t c = 0; c < cells.size(); ++c)
-        side[c] = (cm[3 * c + q.component] < level) == (q.sign > 0) ? 1 : 2;
-      auto tags = std::make_shared<mesh::MeshTags<std::int32_t>>(mesh, 3, cells, side);
-      auto form = problem.residual_on_cells(tags, 1);
-      keep_tags.push_back(tags);
-      keep_forms.push_back(form);
+      // each part contributes the residual of its own cells on that side
+      std::vector<std::shared_ptr<fem::Form<double>>> forms;
+      for (std::size_t p = 0; p < body.size(); ++p)
+      {
+        std::vector<std::int32_t> side(cells.size());
+        for (std::size_t c = 0; c < cells.size(); ++c)
+          side[c] = (cm[3 * c + q.component] < level) == (q.sign > 0)
+                            and (!part_tags or part_tags->values()[c] == int(p) + 1)
+                        ? 1
+                        : 2;
+        auto tags = std::make_shared<mesh::MeshTags<std::int32_t>>(mesh, 3, cells, side);
+        forms.push_back(body[p]->residual_on_cells(tags, 1));
+        keep_tags.push_back(tags);
+        keep_forms.push_back(forms.back());
+      }
       const double sign = q.sign;
       measure.push_back(
-          [&nodal, form, dofs, sign]
+          [&nodal, forms, dofs, sign]
           {
             la::Vector<double> b(nodal.map(), nodal.bs());
-            fem::assemble_vector<double>(b.mutable_array(), *form);
+            for (const auto& form : forms)
+              fem::assemble_vector<double>(b.mutable_array(), *form);
             b.scatter_rev(std::plus<double>());
             return sign * sum_owned(b, dofs);
           });
@@ -356,13 +440,15 @@ void run_scene(const Scene& scene, const RunOptions& options)
       break;
     }
     case K::volume_change:
-      measure.push_back([&, volume0] { return problem.volume() / volume0 - 1; });
+      measure.push_back([&, volume0] { return total_volume() / volume0 - 1; });
       break;
     case K::min_J:
       measure.push_back(
           [&]
           {
-            const double local = problem.min_jacobian_determinant().first;
+            double local = std::numeric_limits<double>::infinity();
+            for (const MuscleProblem* part : body)
+              local = std::min(local, part->min_jacobian_determinant().first);
             double global = 0;
             MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MIN, mesh->comm());
             return global;
@@ -373,24 +459,38 @@ void run_scene(const Scene& scene, const RunOptions& options)
 
   const std::int64_t unknowns = V->dofmap()->index_map->size_global() * 3
                                 + (constraint ? 1 - constraint->size() : 0);
-  nlohmann::json built = {
-      {"forms", problem.kernel_name()},
-      {"activation_terms", part.active},
-      {"activation_kernel", problem.has_activation_kernel()},
-      {"twitch_train", model_time and uses_twitch_train(part.parameters.model())},
-      {"axial_constraint_unknown", constraint != nullptr},
-      {"mass_matrix", false},
-      {"unknowns", unknowns}};
+  // what each part built; the first part's at the top level
+  nlohmann::json built_parts = nlohmann::json::array();
+  std::string forms_text;
+  for (std::size_t p = 0; p < body.size(); ++p)
+  {
+    const Part& part = scene.parts[p];
+    built_parts.push_back(
+        {{"part", part.name},
+         {"forms", body[p]->kernel_name()},
+         {"activation_terms", part.active},
+         {"activation_kernel", body[p]->has_activation_kernel()},
+         {"twitch_train", model_time[p] and uses_twitch_train(part.parameters.model())}});
+    forms_text += (p ? ", " : "") + body[p]->kernel_name()
+                  + (body[p]->has_activation_kernel() ? " + activation kernel" : "");
+  }
+  nlohmann::json built = built_parts[0];
+  built.erase("part");
+  built["axial_constraint_unknown"] = constraint != nullptr;
+  built["mass_matrix"] = false;
+  built["unknowns"] = unknowns;
+  if (body.size() > 1)
+    built["parts"] = built_parts;
   if (!options.quiet and is_root())
-    std::printf("%s: %s, %lld cells, %lld unknowns, forms %s%s\n", scene.file.c_str(),
+    std::printf("%s: %s, %lld cells, %lld unknowns, forms %s\n", scene.file.c_str(),
                 scene.title.c_str(), static_cast<long long>(gm.num_cells),
-                static_cast<long long>(unknowns), problem.kernel_name().c_str(),
-                problem.has_activation_kernel() ? " + activation kernel" : "");
+                static_cast<long long>(unknowns), forms_text.c_str());
 
   nlohmann::json assembly;
   if (options.measure_assembly > 0)
   {
-    // the scene's forms against the plain passive forms of the same model
+    // the (first) part's forms against the plain passive forms of the same model
+    const Part& part = scene.parts[0];
     problem.set_time_factor(part.active ? 1.0 : 0.0);
     assembly["scene"] = time_assembly(problem, options.measure_assembly);
     MuscleProblem plain(mesh, part.parameters,
@@ -444,11 +544,14 @@ void run_scene(const Scene& scene, const RunOptions& options)
 
   auto set_time = [&](double t)
   {
-    if (part.active)
+    for (std::size_t p = 0; p < body.size(); ++p)
     {
-      const double model_factor = model_time ? time_factor(part.parameters, t) : 0.0;
-      problem.set_time_factor(part.activation_time(t, model_factor));
-      scale->update(t);
+      const Part& part = scene.parts[p];
+      if (!part.active)
+        continue;
+      const double model_factor = model_time[p] ? time_factor(part.parameters, t) : 0.0;
+      body[p]->set_time_factor(part.activation_time(t, model_factor));
+      scales[p]->update(t);
     }
     for (auto& [constant, bc] : moving)
       constant->value = {bc->value(t)};
@@ -457,11 +560,15 @@ void run_scene(const Scene& scene, const RunOptions& options)
   // solve: a negative activation at t = 0.1 s should not cost a run to 0.1 s.
   for (double t = stepping.t_start; t <= stepping.t_end + 1e-12 * stepping.dt; t += stepping.dt)
   {
-    set_time(t); // the scale field checks itself
-    const double a = problem.time_factor();
-    if (part.active and !(std::isfinite(a) and a >= 0))
-      throw InputError(part.where.text() + ": activation.time is " + std::to_string(a)
-                       + " at t = " + std::to_string(t) + "; it must be finite and >= 0");
+    set_time(t); // the scale fields check themselves
+    for (std::size_t p = 0; p < body.size(); ++p)
+    {
+      const double a = body[p]->time_factor();
+      if (scene.parts[p].active and !(std::isfinite(a) and a >= 0))
+        throw InputError(scene.parts[p].where.text() + ": activation.time is "
+                         + std::to_string(a) + " at t = " + std::to_string(t)
+                         + "; it must be finite and >= 0");
+    }
     for (auto& [constant, bc] : moving)
       if (!std::isfinite(constant->value[0]))
         throw InputError(bc->where.text() + ": the prescribed displacement is "
@@ -470,9 +577,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
   if (options.check_only)
     return;
   set_time(stepping.t_start);
-  problem.update_activation();
-
-  NonlinearSolver solver(problem, bcs, constraint, scene.newton);
+  NonlinearSolver solver(body, bcs, constraint, scene.newton);
+  solver.update_activation();
   QuasiStaticStepper stepper(problem, solver, set_time, stepping);
 
   // Outputs
@@ -489,6 +595,43 @@ void run_scene(const Scene& scene, const RunOptions& options)
       series << ",newton_iterations,linear_iterations,cutbacks,residual,wall_time\n";
     }
   }
+  // Output fields of the whole body: each part fills its own cells
+  auto body_post = [&]
+  {
+    MuscleProblem::PostFields sum = body[0]->post_fields();
+    for (std::size_t p = 1; p < body.size(); ++p)
+    {
+      const MuscleProblem::PostFields more = body[p]->post_fields();
+      auto add = [](auto& to, const auto& from)
+      {
+        std::span<double> x = to->x()->mutable_array();
+        std::span<const double> y = from->x()->array();
+        for (std::size_t i = 0; i < x.size(); ++i)
+          x[i] += y[i];
+      };
+      add(sum.fibre_stretch, more.fibre_stretch);
+      add(sum.fibre_stress, more.fibre_stress);
+      add(sum.von_mises, more.von_mises);
+      add(sum.J, more.J);
+    }
+    return sum;
+  };
+  auto fibre = problem.fibre();
+  if (body.size() > 1)
+  {
+    fibre = std::make_shared<fem::Function<double>>(problem.fibre()->function_space());
+    fibre->name = "fibre";
+    const auto& dofmap = *fibre->function_space()->dofmap();
+    std::span<double> out = fibre->x()->mutable_array();
+    for (const MuscleProblem* part : body)
+    {
+      std::span<const double> in = part->fibre()->x()->array();
+      for (std::int32_t c : part->cells())
+        for (int k = 0; k < 3; ++k)
+          out[3 * dofmap.cell_dofs(c)[0] + k] = in[3 * dofmap.cell_dofs(c)[0] + k];
+    }
+  }
+
   // A killed run leaves its HDF5 file unclosed (unreadable for appending):
   // a resumed run writes its fields to a file of its own.
   std::unique_ptr<io::XDMFFile> xdmf;
@@ -499,14 +642,14 @@ void run_scene(const Scene& scene, const RunOptions& options)
   {
     xdmf = std::make_unique<io::XDMFFile>(mesh->comm(), fields_path, "w");
     xdmf->write_mesh(*mesh);
-    xdmf->write_function(*problem.fibre(), stepping.t_start);
+    xdmf->write_function(*fibre, stepping.t_start);
   }
   auto write_fields = [&](double t)
   {
     if (!xdmf)
       return;
     xdmf->write_function(*problem.u(), t);
-    const MuscleProblem::PostFields post = problem.post_fields();
+    const MuscleProblem::PostFields post = body_post();
     for (auto& f : {post.fibre_stretch, post.fibre_stress, post.von_mises, post.J})
       xdmf->write_function(*f, t);
   };
@@ -577,13 +720,14 @@ void run_scene(const Scene& scene, const RunOptions& options)
   // The last converged state is kept whatever happened
   if (scene.output.surface)
   {
-    const MuscleProblem::PostFields post = problem.post_fields();
+    const MuscleProblem::PostFields post = body_post();
     export_deformed_surface(*problem.u(), *post.fibre_stretch, options.out + "/surface.json");
   }
   if (is_root())
   {
     nlohmann::json summary = {
-        {"scene", scene.file}, {"title", scene.title}, {"model", to_string(part.parameters.model())},
+        {"scene", scene.file}, {"title", scene.title},
+        {"model", to_string(scene.parts[0].parameters.model())},
         {"cells", gm.num_cells}, {"nodes", gm.num_nodes}, {"degree", scene.mesh.degree},
         {"dt", scene.time.dt}, {"t_end", scene.time.t_end}, {"steps", step},
         {"newton_iterations", total_newton}, {"linear_iterations", total_linear},

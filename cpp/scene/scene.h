@@ -80,6 +80,9 @@ struct FibreSpec
 struct Part
 {
   std::string name;
+  /// Volume groups of the mesh this part occupies; empty: the whole mesh
+  /// (a single part).  Parts must not share a volume and must cover the mesh.
+  std::vector<std::string> volumes;
   ParameterSet parameters{Model::combi};
   bool active = true; ///< false: passive forms only, no activation kernel
   FibreSpec fibres;

@@ -473,10 +473,21 @@ ActivationScale read_scale(const Entry& e, const std::string& directory)
 
 Part read_part(const Entry& e, const std::string& directory)
 {
-  e.require_map({"name", "material", "fibres", "activation"});
+  e.require_map({"name", "volumes", "material", "fibres", "activation"});
   Part part;
   part.where = e.where();
   part.name = e["name"].text("muscle");
+  const Entry v = e["volumes"];
+  if (v.defined())
+  {
+    if (v.is_scalar())
+      part.volumes.push_back(v.text());
+    else if (v.is_sequence() and v.size() > 0)
+      for (std::size_t i = 0; i < v.size(); ++i)
+        part.volumes.push_back(v.at(i).text());
+    else
+      v.fail("expected a volume group name or a non-empty list of them, found " + v.shown());
+  }
   read_material(e.required("material"), part, directory);
   part.fibres = read_fibres(e["fibres"], directory);
   const Entry a = e["activation"];
@@ -617,11 +628,15 @@ Scene parse_scene(const std::string& text, const std::string& name,
   const Entry parts = top.required("parts");
   if (!parts.is_sequence() or parts.size() == 0)
     parts.fail("expected a list of parts, found " + parts.shown());
-  if (parts.size() > 1)
-    parts.at(1).fail("this version solves one part per scene (the whole mesh); found "
-                     + std::to_string(parts.size()));
+  std::set<std::string> part_names;
   for (std::size_t i = 0; i < parts.size(); ++i)
+  {
     scene.parts.push_back(read_part(parts.at(i), directory));
+    if (parts.size() > 1 and scene.parts.back().volumes.empty())
+      parts.at(i).fail("with several parts, each names its volume groups ('volumes: [...]')");
+    if (!part_names.insert(scene.parts.back().name).second)
+      parts.at(i)["name"].fail("two parts named '" + scene.parts.back().name + "'");
+  }
 
   // boundary conditions
   const Entry b = top.required("boundary");

@@ -5,6 +5,7 @@
     test_scenes.py broken --build DIR    the table of broken scenes: message and exit status
     test_scenes.py resume --build DIR    a run killed midway resumes to the uninterrupted result
     test_scenes.py parity --build DIR    1 and 2 MPI ranks agree (and resume across them)
+    test_scenes.py parts --build DIR     several parts: a split body equals the whole, 1 = 2 ranks
     test_scenes.py extremes --build DIR  penalty x1000, activation x2, one large step,
                                          nearly degenerate elements: converge or stop cleanly
 
@@ -98,7 +99,7 @@ def same_as_fusiform_demo(build, tmp, case, column, t_end, value):
 
 
 def demos(build):
-    horizons = {"fusiform_isometric": 0.02, "fusiform_free": 0.02, "fusiform_passive_stretch": 0.03,
+    horizons = {"block_muscle_tendon": 0.03, "fusiform_isometric": 0.02, "fusiform_free": 0.02, "fusiform_passive_stretch": 0.03,
                 "block_graded": 0.03, "block_wave": 0.03, "block_cell_data": 0.005}
     names = sorted(f[:-5] for f in os.listdir(SCENES) if f.endswith(".yaml"))
     check(set(names) == set(horizons), f"every demo scene is tested ({names})")
@@ -128,7 +129,7 @@ def demos(build):
 # The base is block_graded.yaml unless named; `line` asks the message to point
 # at the line holding the replacement.
 # ---------------------------------------------------------------------------
-B, F = "block_graded", "fusiform_free"
+B, F, T = "block_graded", "fusiform_free", "block_muscle_tendon"
 BROKEN = [
     ("model misspelt", B, "model: ble", "model: bel", ["material.model", "'bel'", "did you mean 'ble'"], True),
     ("unknown top-level key", B, "time: {end", "tme: {end", ["unknown key 'tme'", "did you mean 'time'"], True),
@@ -181,7 +182,16 @@ BROKEN = [
      ["parameter_file", "not found"], True),
     ("quadrature degree not compiled", B, "{degree: 2}", "{degree: 2, quadrature_degree: 3}",
      ["element", "no compiled kernels"], False),
-    ("a second part", B, "boundary:", "  - {material: {model: ble}}\nboundary:", ["parts[1]", "one part per scene"], True),
+    ("a second part without volumes", B, "boundary:", "  - {name: two, material: {model: ble}}\nboundary:",
+     ["parts[0]", "each names its volume groups"], False),
+    ("two parts of one name", T, "name: tendon", "name: muscle", ["parts[1].name", "two parts named 'muscle'"], True),
+    ("a volume in two parts", T, "volumes: [upper]", "volumes: [upper, lower]",
+     ["parts[1].volumes", "'lower' already belongs to part 'muscle'"], False),
+    ("empty volume list", T, "volumes: [upper]", "volumes: []", ["parts[1].volumes", "non-empty list"], True),
+    ("cells in no part", B, "  - name: muscle\n", "  - name: muscle\n    volumes: lower\n",
+     ["parts:", "cells belong to no part", "volume groups in no part: upper"], False),
+    ("unknown volume of a part", T, "volumes: [upper]", "volumes: [uper]",
+     ["parts[1].volumes", "no volume group 'uper'", "did you mean 'upper'"], False),
     ("activation negative later on", B, "time: model", "time: {table: [[0, 0], [0.05, 1], [0.08, -1]]}",
      ["parts[0]", "activation.time is -", "t = 0.07"], False),
     ("scale formula negative later on", B, "scale: {groups: {lower: 1.0, upper: 0.5}}",
@@ -385,6 +395,67 @@ def extremes(build):
     print("\n".join(f"  {w:32s} {o}" for w, o in outcomes))
 
 
+# ---------------------------------------------------------------------------
+# several parts: a body split into parts of the same material must give the
+# single-part result (the forms, kernels and post-processing of each part see
+# only its cells); a real two-material body agrees on 1 and 2 ranks.
+# ---------------------------------------------------------------------------
+def split_in_two(text, part_a, part_b):
+    start = text.index("parts:\n") + len("parts:\n")
+    end = text.index("boundary:")
+    return text[:start] + part_a + part_b + text[end:]
+
+
+def parts(build):
+    graded = absolute_paths(open(os.path.join(SCENES, "block_graded.yaml")).read())
+    body = """    material: {{model: ble}}
+    fibres: {{direction: [0, 0, 1]}}
+    activation: {{time: model, scale: {scale}}}
+"""
+    two_graded = split_in_two(graded, "  - name: a\n    volumes: lower\n" + body.format(scale=1.0),
+                              "  - name: b\n    volumes: [upper]\n" + body.format(scale=0.5))
+    wave = absolute_paths(open(os.path.join(SCENES, "block_wave.yaml")).read())
+    wave_part = """    material: {model: giant}
+    fibres: {direction: [0, 0, 1]}
+    activation:
+      time: {ramp: {start: 0, duration: 0.02, value: 1}}
+      scale: {expression: "exp(-((z - 300*t)/8)^2)"}
+"""
+    two_wave = split_in_two(wave, "  - name: a\n    volumes: [lower]\n" + wave_part,
+                            "  - name: b\n    volumes: [upper]\n" + wave_part)
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, one, two, t_end in [("BLE, activation per group", graded, two_graded, "0.05"),
+                                      ("GIANT kernels, travelling wave", wave, two_wave, "0.02")]:
+            finals = []
+            for label, text in (("one", one), ("two", two)):
+                path = os.path.join(tmp, f"{label}.yaml")
+                with open(path, "w") as f:
+                    f.write(text)
+                out = os.path.join(tmp, label)
+                r = run(build, [path, "--out", out, "--quiet", "--t-end", t_end])
+                check(r.returncode == 0, f"{name}, {label} part(s): runs {r.stderr[-300:]}")
+                finals.append(json.load(open(os.path.join(out, "summary.json")))["final"] if r.returncode == 0 else {})
+            a, b = finals
+            worst = max((abs(a[k] - b[k]) / max(abs(a[k]), 1e-12) for k in a), default=math.inf)
+            check(bool(a) and worst <= 1e-9,
+                  f"{name}: two parts of one material = one part (worst relative difference {worst:.1e})")
+        scene = os.path.join(SCENES, "block_muscle_tendon.yaml")
+        outs = [os.path.join(tmp, f"mt{n}") for n in (1, 2)]
+        for n, out in zip((1, 2), outs):
+            r = run(build, [scene, "--out", out, "--quiet", "--t-end", "0.03"], ranks=n)
+            check(r.returncode == 0, f"muscle + tendon on {n} rank(s) {r.stderr[-300:]}")
+        a, b = (json.load(open(os.path.join(o, "summary.json"))) for o in outs)
+        # relative to the value, or to 1 mN / 1 mm for quantities that vanish (round-off)
+        worst = max(abs(a["final"][k] - b["final"][k]) / max(abs(a["final"][k]), 1.0) for k in a["final"])
+        check(worst <= 1e-8, f"muscle + tendon: 1 and 2 ranks agree ({worst:.1e})")
+        built = a["built"]["parts"]
+        check(built[0]["forms"] == "combi" and built[1]["forms"] == "ehret_passive"
+              and not built[1]["activation_terms"], f"the tendon builds passive forms only ({built})")
+        f = a["final"]
+        check(f["epsilon"] < 1 and f["F33_middle"] < 1e-6 * 1e3,
+              f"the free body shortens ({f['epsilon']:.4f}) and carries no axial force ({f['F33_middle']:.2e} mN)")
+
+
 def parity(build):
     scene = os.path.join(SCENES, "block_graded.yaml")
     with tempfile.TemporaryDirectory() as tmp:
@@ -407,12 +478,12 @@ def parity(build):
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser()
-    parser.add_argument("what", choices=["demos", "broken", "resume", "parity", "extremes"])
+    parser.add_argument("what", choices=["demos", "broken", "resume", "parity", "extremes", "parts"])
     parser.add_argument("--build", required=True)
     args = parser.parse_args()
     os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
     os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
     {"demos": demos, "broken": broken, "resume": resume, "parity": parity,
-     "extremes": extremes}[args.what](args.build)
+     "extremes": extremes, "parts": parts}[args.what](args.build)
     print(f"{len(failures)} failure(s)")
     sys.exit(1 if failures else 0)
