@@ -64,8 +64,15 @@ TEST(Expression, ReportsMistakes)
   for (const char* bad : {"", "1 +", "(x", "x)", "exp x", "min(x)", "2..3", "foo(x)", "w", "x $ y",
                           "max(x,", "1e"})
     EXPECT_THROW(Expression(bad, {"x", "y"}), InputError) << bad;
-  // nesting is bounded, not a stack overflow
+  // nesting and length are bounded, not a stack overflow
   EXPECT_THROW(Expression(std::string(100000, '(') + "x", {"x"}), InputError);
+  EXPECT_THROW(Expression(std::string(100000, '-') + "1", {"x"}), InputError);
+  EXPECT_THROW(Expression("2" + std::string(100000, '^') + "1", {"x"}), InputError);
+  std::string sum = "1";
+  for (int i = 0; i < 100000; ++i)
+    sum += "+1";
+  EXPECT_THROW(Expression(sum, {"x"}), InputError);
+  EXPECT_EQ(Expression("1+1+1", {"x"})(nullptr), 3);
 }
 
 TEST(TimeFunction, RampAndTable)

@@ -1,5 +1,8 @@
 #include "application.h"
 
+#include <chrono>
+#include <thread>
+
 #include "errors.h"
 
 #include <cctype>
@@ -11,6 +14,47 @@
 
 namespace muscle
 {
+
+namespace
+{
+/// Did every rank leave the program body (within a few seconds)?  A rank that
+/// stopped with an error alone prints its own message first.
+bool all_ranks_stopped()
+{
+  int size = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  if (size == 1)
+    return true;
+  MPI_Request request;
+  MPI_Ibarrier(MPI_COMM_WORLD, &request);
+  for (int k = 0; k < 500; ++k) // 5 s
+  {
+    int done = 0;
+    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+    if (done)
+      return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+} // namespace
+
+void throw_if_any(MPI_Comm comm, const std::string& message)
+{
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  int mine = message.empty() ? size : rank, first = size;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
+  if (first == size)
+    return;
+  std::string text = message;
+  int length = text.size();
+  MPI_Bcast(&length, 1, MPI_INT, first, comm);
+  text.resize(length);
+  MPI_Bcast(text.data(), length, MPI_CHAR, first, comm);
+  throw InputError(text);
+}
 
 bool is_root()
 {
@@ -102,27 +146,38 @@ int run_application(int argc, char** argv,
   PetscInitialize(&argc, &argv, nullptr, nullptr);
   loguru::g_stderr_verbosity = loguru::Verbosity_WARNING;
   int status = exit_ok;
+  std::string message;
   try
   {
     status = body(split_petsc_options(argc, argv));
   }
   catch (const InputError& e)
   {
-    if (is_root())
-      std::cerr << "error: " << e.what() << std::endl;
+    message = std::string("error: ") + e.what();
     status = exit_input_error;
   }
   catch (const SolveError& e)
   {
-    if (is_root())
-      std::cerr << "solve failed: " << e.what() << std::endl;
+    message = std::string("solve failed: ") + e.what();
     status = exit_solve_error;
   }
   catch (const std::exception& e)
   {
-    if (is_root())
-      std::cerr << "internal error: " << e.what() << std::endl;
+    message = std::string("internal error: ") + e.what();
     status = exit_internal_error;
+  }
+  if (status != exit_ok)
+  {
+    if (is_root() and !message.empty())
+      std::cerr << message << std::endl;
+    if (!all_ranks_stopped())
+    {
+      // an error on this rank only: the others would wait in a collective
+      // for ever, so the whole job stops (mpirun passes the status on)
+      if (!is_root() and !message.empty())
+        std::cerr << message << std::endl;
+      MPI_Abort(MPI_COMM_WORLD, status);
+    }
   }
   PetscFinalize();
   return status;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <functional>
+#include <mpi.h>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,11 @@ std::vector<std::string> split_petsc_options(int argc, char** argv,
 
 /// Is this the MPI rank that prints?
 bool is_root();
+
+/// Errors found in one rank's share of the mesh (a cell, a data row) must stop
+/// every rank: throws InputError on all ranks if `message` is non-empty on any
+/// (the lowest such rank's message).  Collective.
+void throw_if_any(MPI_Comm comm, const std::string& message);
 
 /// START:STOP:COUNT -> COUNT equally spaced values (COUNT = 1 gives START).
 /// `what` names the option in error messages.

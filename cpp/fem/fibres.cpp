@@ -1,5 +1,7 @@
 #include "fibres.h"
 
+#include "../common/application.h"
+
 #include "../common/errors.h"
 #include "../forms/form_registry.h"
 
@@ -21,7 +23,8 @@ namespace muscle
 LaplaceFibres laplace_fibres(std::shared_ptr<mesh::Mesh> mesh,
                              const mesh::MeshTags<std::int32_t>& facet_tags,
                              int from_tag, int to_tag,
-                             std::shared_ptr<const fem::FunctionSpace> fibre_space)
+                             std::shared_ptr<const fem::FunctionSpace> fibre_space,
+                             const std::vector<std::int32_t>* only)
 {
   const std::string cell = mesh::to_string(mesh->topology().cell_type());
   const forms::FibreVariant* variant = nullptr;
@@ -101,17 +104,28 @@ LaplaceFibres laplace_fibres(std::shared_ptr<mesh::Mesh> mesh,
   out.fibre->name = "fibre";
   std::span<double> m = out.fibre->x()->mutable_array();
   const auto& dofmap = *fibre_space->dofmap();
+  std::vector<char> wanted(num_cells, only == nullptr);
+  if (only)
+    for (std::int32_t c : *only)
+      wanted[c] = 1;
+  std::string error;
   for (std::int32_t c = 0; c < num_cells; ++c)
   {
+    if (!wanted[c])
+      continue;
     const double n = std::sqrt(gradient(c, 0) * gradient(c, 0) + gradient(c, 1) * gradient(c, 1)
                                + gradient(c, 2) * gradient(c, 2));
     if (!(n > 0))
-      throw InputError("fibre potential has zero gradient in a cell: are the origin and "
-                       "insertion surfaces tagged and distinct?");
+    {
+      error = "fibre potential has zero gradient in a cell: are the two surfaces tagged, "
+              "distinct, and do they bound this part?";
+      break;
+    }
     const std::int32_t dof = dofmap.cell_dofs(c)[0];
     for (int k = 0; k < 3; ++k)
       m[3 * dof + k] = gradient(c, k) / n;
   }
+  throw_if_any(mesh->comm(), error);
   return out;
 }
 

@@ -20,9 +20,12 @@ struct LaplaceFibres
 /// `fibre_space`: the DG0 vector space the fibre is written into (that of the
 /// muscle problem).  Solved with a direct solver, so the field is the same on
 /// any number of ranks to round-off.
+/// `cells`: the local cells that need a fibre (default all); the others keep
+/// a zero vector.  A cell without gradient stops every rank (InputError).
 LaplaceFibres laplace_fibres(std::shared_ptr<dolfinx::mesh::Mesh> mesh,
                              const dolfinx::mesh::MeshTags<std::int32_t>& facet_tags,
                              int from_tag, int to_tag,
-                             std::shared_ptr<const dolfinx::fem::FunctionSpace> fibre_space);
+                             std::shared_ptr<const dolfinx::fem::FunctionSpace> fibre_space,
+                             const std::vector<std::int32_t>* cells = nullptr);
 
 } // namespace muscle

@@ -60,13 +60,12 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
   where_local.resize(length);
   MPI_Bcast(where_local.data(), length, MPI_CHAR, global.rank, mesh->comm());
   f.where = where_local;
-  if (!report.kernel.ok())
-  {
-    std::int64_t failures = report.kernel.failures, total = 0;
-    MPI_Allreduce(&failures, &total, 1, MPI_INT64_T, MPI_SUM, mesh->comm());
-    f.where += "; activation kernel without admissible root at "
-               + std::to_string(total) + " quadrature points";
-  }
+  // kernel failures are counted per rank: the reduction is collective
+  std::int64_t failures = report.kernel.failures, total = 0;
+  MPI_Allreduce(&failures, &total, 1, MPI_INT64_T, MPI_SUM, mesh->comm());
+  if (total > 0)
+    f.where += "; activation kernel without admissible root at " + std::to_string(total)
+               + " quadrature points";
   if (global.value <= 0)
     f.advice = "elements invert: use a smaller time step (--dt, scene time.step), a finer mesh, or "
                "quadratic elements";

@@ -30,8 +30,8 @@ bool run_plot_script(const std::string& script, const std::vector<std::string>& 
   if (status != 0)
   {
     std::cerr << "warning: plotting with " << script
-              << " failed (is python3-matplotlib installed?); the data files are "
-                 "written"
+              << " failed (its error is above; is python3-matplotlib installed?); the data "
+                 "files are written"
               << std::endl;
     return false;
   }

@@ -56,7 +56,20 @@ void write_checkpoint(const fem::Function<double>& u, const std::string& directo
   if (rank != 0)
     return;
 
-  const std::string bin = directory + "/checkpoint.bin", json = directory + "/checkpoint.json";
+  // the binary of step k has its own name; the JSON naming it is renamed into
+  // place last, and only then is the previous binary removed: a kill at any
+  // moment leaves one consistent pair
+  const std::int64_t step = state.at("step").get<std::int64_t>();
+  const std::string name = "checkpoint_" + std::to_string(step) + ".bin";
+  const std::string bin = directory + "/" + name, json = directory + "/checkpoint.json";
+  std::string previous;
+  try
+  {
+    previous = nlohmann::json::parse(std::ifstream(json)).value("binary", "");
+  }
+  catch (const std::exception&)
+  {
+  }
   {
     std::ofstream out(bin + ".tmp", std::ios::binary);
     const std::int64_t header[3] = {magic, bs, state.at("step").get<std::int64_t>()};
@@ -66,17 +79,21 @@ void write_checkpoint(const fem::Function<double>& u, const std::string& directo
       throw std::runtime_error("cannot write " + bin + ".tmp");
   }
   std::filesystem::rename(bin + ".tmp", bin);
-  std::ofstream(json + ".tmp") << state.dump(1) << "\n";
+  nlohmann::json with_name = state;
+  with_name["binary"] = name;
+  std::ofstream(json + ".tmp") << with_name.dump(1) << "\n";
   std::filesystem::rename(json + ".tmp", json);
+  if (!previous.empty() and previous != name)
+    std::filesystem::remove(directory + "/" + previous);
 }
 
 nlohmann::json read_checkpoint(fem::Function<double>& u, const std::string& directory)
 {
-  const std::string bin = directory + "/checkpoint.bin", json = directory + "/checkpoint.json";
-  if (!std::filesystem::exists(json) or !std::filesystem::exists(bin))
+  const std::string json = directory + "/checkpoint.json";
+  if (!std::filesystem::exists(json))
     throw InputError("--resume: no checkpoint in " + directory
-                     + " (checkpoint.json and checkpoint.bin are written after every converged "
-                       "step; run without --resume to start afresh)");
+                     + " (checkpoint.json and checkpoint_STEP.bin are written after every "
+                       "converged step; run without --resume to start afresh)");
   nlohmann::json state;
   try
   {
@@ -86,6 +103,9 @@ nlohmann::json read_checkpoint(fem::Function<double>& u, const std::string& dire
   {
     throw InputError(json + ": unreadable checkpoint (" + e.what() + ")");
   }
+  const std::string bin = directory + "/" + state.value("binary", "checkpoint.bin");
+  if (!std::filesystem::exists(bin))
+    throw InputError("--resume: " + bin + " named by " + json + " is missing");
   const auto& V = *u.function_space();
   const int bs = V.dofmap()->index_map_bs();
   std::ifstream in(bin, std::ios::binary);

@@ -11,9 +11,9 @@ namespace muscle
 /// by its coordinates, so a run can resume on any number of ranks) and the
 /// run's counters in `state` (time, step, sub-step, ...).
 ///
-/// Files: DIR/checkpoint.bin then DIR/checkpoint.json, each written to a
-/// temporary name and renamed -- a run killed while writing leaves the
-/// previous checkpoint intact.  The JSON names the step of the binary.
+/// Files: DIR/checkpoint_STEP.bin, then DIR/checkpoint.json naming it, each
+/// written to a temporary name and renamed; the previous binary is removed
+/// last -- a run killed at any moment leaves a consistent pair.
 void write_checkpoint(const dolfinx::fem::Function<double>& u, const std::string& directory,
                       const nlohmann::json& state);
 

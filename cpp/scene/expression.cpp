@@ -117,8 +117,9 @@ private:
     }
     return false;
   }
-  static NodePtr make_binary(char op, NodePtr a, NodePtr b)
+  NodePtr make_binary(char op, NodePtr a, NodePtr b)
   {
+    count_node();
     auto n = std::make_shared<Expression::Node>();
     n->kind = Expression::Node::binary;
     n->op = op;
@@ -169,9 +170,29 @@ private:
         return a;
     }
   }
+  // Every recursion passes through here: bounded depth, bounded size (the
+  // tree is evaluated recursively too)
+  void count_node()
+  {
+    if (++_nodes > 10000)
+      fail("formula too long (more than 10000 operations)");
+  }
+  struct Depth
+  {
+    Parser& p;
+    explicit Depth(Parser& parser) : p(parser)
+    {
+      if (++p._depth > 200)
+        p.fail("nesting too deep");
+    }
+    ~Depth() { --p._depth; }
+  };
+
   // -x^2 = -(x^2), as in mathematics
   NodePtr signed_power()
   {
+    const Depth guard(*this);
+    count_node();
     if (accept("-"))
     {
       auto n = std::make_shared<Expression::Node>();
@@ -192,8 +213,6 @@ private:
   }
   NodePtr atom()
   {
-    if (++_depth > 200)
-      fail("nesting too deep");
     skip();
     if (_i >= _s.size())
       fail("unexpected end, expected a number, variable or '('");
@@ -269,14 +288,13 @@ private:
     }
     else
       fail("unexpected '" + std::string(1, c) + "'");
-    --_depth;
     return result;
   }
 
   const std::string& _s;
   const std::vector<std::string>& _variables;
   std::size_t _i = 0;
-  int _depth = 0;
+  int _depth = 0, _nodes = 0;
 };
 
 bool uses_index(const Expression::Node& n, int index)

@@ -90,6 +90,7 @@ PointData::PointData(const std::string& path, std::size_t columns)
         _values.push_back(v);
     }
     _points.push_back(x);
+    _lines.push_back(number);
   }
   if (_points.empty())
     throw InputError(path + ": no data rows");

@@ -32,6 +32,9 @@ public:
   {
     return _values[row * _names.size() + column];
   }
+  /// Line of the file a row was read from.
+  int line(std::size_t row) const { return _lines[row]; }
+
   /// Timed data: linear in time between columns, constant outside.
   double value_at(std::size_t row, double t) const;
 
@@ -40,6 +43,7 @@ private:
   std::vector<double> _times;
   std::vector<std::array<double, 3>> _points;
   std::vector<double> _values;
+  std::vector<int> _lines;
   // uniform bucket grid for the nearest-point search
   std::array<double, 3> _lower{}, _width{};
   std::array<int, 3> _count{};

@@ -111,7 +111,8 @@ public:
     if (!first and !time_dependent())
       return;
     std::span<double> x = _scale.x()->mutable_array();
-    for (std::size_t c = 0; c < _dofs.size(); ++c)
+    std::string error;
+    for (std::size_t c = 0; c < _dofs.size() and error.empty(); ++c)
     {
       double v = _spec.value;
       switch (_spec.kind)
@@ -132,13 +133,15 @@ public:
         break;
       }
       if (!std::isfinite(v) or v < 0)
-        throw InputError(_spec.where.text() + ": the activation scale is " + std::to_string(v)
-                         + " in the cell at (" + std::to_string(_midpoints[3 * c]) + ", "
-                         + std::to_string(_midpoints[3 * c + 1]) + ", "
-                         + std::to_string(_midpoints[3 * c + 2]) + ") at t = "
-                         + std::to_string(t) + "; it must be finite and >= 0");
+        error = _spec.where.text() + ": the activation scale is " + std::to_string(v)
+                + " in the cell at (" + std::to_string(_midpoints[3 * c]) + ", "
+                + std::to_string(_midpoints[3 * c + 1]) + ", "
+                + std::to_string(_midpoints[3 * c + 2]) + ") at t = " + std::to_string(t)
+                + "; it must be finite and >= 0";
       x[_dofs[c]] = v;
     }
+    // a bad value in one rank's cells stops every rank
+    throw_if_any(_scale.function_space()->mesh()->comm(), error);
   }
 
 private:
@@ -157,30 +160,42 @@ void set_fibres(const FibreSpec& spec, const GmshMesh& gm, MuscleProblem& proble
     problem.set_fibre(spec.direction);
   else if (spec.kind == FibreSpec::Kind::laplace)
   {
-    const LaplaceFibres fibres
-        = laplace_fibres(gm.mesh, *gm.facet_tags, surface(spec.from, spec.where),
-                         surface(spec.to, spec.where), problem.fibre()->function_space());
-    problem.set_fibre(*fibres.fibre);
+    try
+    {
+      // the potential over the whole mesh, fibres on the part's cells
+      const LaplaceFibres fibres = laplace_fibres(
+          gm.mesh, *gm.facet_tags, surface(spec.from, spec.where), surface(spec.to, spec.where),
+          problem.fibre()->function_space(), &problem.cells());
+      problem.set_fibre(*fibres.fibre);
+    }
+    catch (const InputError& e)
+    {
+      if (std::string(e.what()).rfind(spec.where.file, 0) == 0)
+        throw;
+      throw InputError(spec.where.text() + ": " + e.what());
+    }
   }
   else
   {
     const PointData data(spec.path, 3);
-    const std::vector<std::int32_t> cells = all_cells(*gm.mesh);
+    const std::vector<std::int32_t>& cells = problem.cells();
     const std::vector<double> mid = mesh::compute_midpoints(*gm.mesh, 3, cells);
     auto& fibre = *problem.fibre();
     std::span<double> x = fibre.x()->mutable_array();
-    for (std::size_t c = 0; c < cells.size(); ++c)
+    std::string error;
+    for (std::size_t c = 0; c < cells.size() and error.empty(); ++c)
     {
       const std::size_t row = data.nearest({mid[3 * c], mid[3 * c + 1], mid[3 * c + 2]});
       const double a[3] = {data.value(row, 0), data.value(row, 1), data.value(row, 2)};
       const double n = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
       if (!(n > 0))
-        throw InputError(spec.path + ": zero fibre direction at data row "
-                         + std::to_string(row + 1));
-      const std::int32_t dof = fibre.function_space()->dofmap()->cell_dofs(c)[0];
-      for (int k = 0; k < 3; ++k)
+        error = spec.where.text() + ": " + spec.path + ":" + std::to_string(data.line(row))
+                + ": zero fibre direction (nearest point of a cell)";
+      const std::int32_t dof = fibre.function_space()->dofmap()->cell_dofs(cells[c])[0];
+      for (int k = 0; k < 3 and error.empty(); ++k)
         x[3 * dof + k] = a[k] / n;
     }
+    throw_if_any(gm.mesh->comm(), error);
   }
 }
 
@@ -389,14 +404,30 @@ void run_scene(const Scene& scene, const RunOptions& options)
       break;
     case K::section_force:
     {
-      // the residual of the cells on one side of the surface, summed over its nodes
+      // the residual of the cells on one side of the surface, summed over its
+      // nodes; the side is decided along the surface's normal axis, so the
+      // surface must be a plane x, y or z = const
       const auto facets = tagged_facets(*gm.facet_tags, surface(q.surface, q.where));
       const std::vector<double> fm = mesh::compute_midpoints(*mesh, 2, facets);
-      double local[2] = {0, static_cast<double>(facets.size())}, global[2];
+      double low[3], high[3], lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
       for (std::size_t f = 0; f < facets.size(); ++f)
-        local[0] += fm[3 * f + q.component];
-      MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_SUM, mesh->comm());
-      const double level = global[0] / global[1];
+        for (int d = 0; d < 3; ++d)
+        {
+          lo[d] = std::min(lo[d], fm[3 * f + d]);
+          hi[d] = std::max(hi[d], fm[3 * f + d]);
+        }
+      MPI_Allreduce(lo, low, 3, MPI_DOUBLE, MPI_MIN, mesh->comm());
+      MPI_Allreduce(hi, high, 3, MPI_DOUBLE, MPI_MAX, mesh->comm());
+      int normal = 0;
+      for (int d = 1; d < 3; ++d)
+        if (high[d] - low[d] < high[normal] - low[normal])
+          normal = d;
+      const double extent = std::max({high[0] - low[0], high[1] - low[1], high[2] - low[2]});
+      if (!(high[normal] - low[normal] <= 1e-9 * extent))
+        throw InputError(q.where.text() + ": section_force needs a plane surface x, y or z = "
+                         "const; '" + q.surface + "' is not one (use reaction on a supported "
+                         "surface)");
+      const double level = 0.5 * (low[normal] + high[normal]);
       const std::vector<std::int32_t> cells = all_cells(*mesh);
       const std::vector<double> cm = mesh::compute_midpoints(*mesh, 3, cells);
       // each part contributes the residual of its own cells on that side
@@ -405,7 +436,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
       {
         std::vector<std::int32_t> side(cells.size());
         for (std::size_t c = 0; c < cells.size(); ++c)
-          side[c] = (cm[3 * c + q.component] < level) == (q.sign > 0)
+          side[c] = (cm[3 * c + normal] < level) == (q.sign > 0)
                             and (!part_tags or part_tags->values()[c] == int(p) + 1)
                         ? 1
                         : 2;
@@ -487,6 +518,9 @@ void run_scene(const Scene& scene, const RunOptions& options)
                 static_cast<long long>(unknowns), forms_text.c_str());
 
   nlohmann::json assembly;
+  if (options.measure_assembly > 0 and body.size() > 1)
+    throw InputError("--measure-assembly compares one part's forms with the plain passive "
+                     "forms; this scene has " + std::to_string(body.size()) + " parts");
   if (options.measure_assembly > 0)
   {
     // the (first) part's forms against the plain passive forms of the same model
@@ -516,9 +550,17 @@ void run_scene(const Scene& scene, const RunOptions& options)
   {
     const nlohmann::json state = read_checkpoint(*problem.u(), options.out);
     if (state.value("scene_fingerprint", std::size_t(0)) != fingerprint(scene.physics))
-      throw InputError("--resume: the scene's mesh, element, parts or boundary changed since "
-                       "the checkpoint in " + options.out + " was written (time, solver and "
-                       "output settings may change); run without --resume to start afresh");
+      throw InputError("--resume: the scene's mesh, element, parts (materials, data files) or "
+                       "boundary changed since the checkpoint in " + options.out + " was "
+                       "written (time, solver and output settings may change); run without "
+                       "--resume to start afresh");
+    std::vector<std::string> columns;
+    for (const SeriesQuantity& q : scene.output.series)
+      columns.push_back(q.name);
+    if (state.value("series_columns", std::vector<std::string>{}) != columns)
+      throw InputError("--resume: output.series changed since the checkpoint in " + options.out
+                       + " (columns now: " + join(columns) + "); keep the series columns to "
+                       "continue the same series.csv");
     step = state.at("step");
     stepping.t_start = state.at("t");
     stepping.first_substep = state.at("next_substep");
@@ -542,6 +584,9 @@ void run_scene(const Scene& scene, const RunOptions& options)
       std::printf("resuming at t = %.6g s (step %d)\n", stepping.t_start, step);
   }
 
+  // Activation and boundary values at t, checked wherever the stepper goes
+  // (also at sub-steps after a cutback): a user formula must never feed a
+  // negative activation or a NaN displacement to the solver
   auto set_time = [&](double t)
   {
     for (std::size_t p = 0; p < body.size(); ++p)
@@ -550,30 +595,27 @@ void run_scene(const Scene& scene, const RunOptions& options)
       if (!part.active)
         continue;
       const double model_factor = model_time[p] ? time_factor(part.parameters, t) : 0.0;
-      body[p]->set_time_factor(part.activation_time(t, model_factor));
-      scales[p]->update(t);
+      const double a = part.activation_time(t, model_factor);
+      if (!(std::isfinite(a) and a >= 0))
+        throw InputError(part.where.text() + ": activation.time is " + std::to_string(a)
+                         + " at t = " + std::to_string(t) + "; it must be finite and >= 0");
+      body[p]->set_time_factor(a);
+      scales[p]->update(t); // checks itself on every rank
     }
     for (auto& [constant, bc] : moving)
-      constant->value = {bc->value(t)};
-  };
-  // Formulas and tables are checked at every output time before the first
-  // solve: a negative activation at t = 0.1 s should not cost a run to 0.1 s.
-  for (double t = stepping.t_start; t <= stepping.t_end + 1e-12 * stepping.dt; t += stepping.dt)
-  {
-    set_time(t); // the scale fields check themselves
-    for (std::size_t p = 0; p < body.size(); ++p)
     {
-      const double a = body[p]->time_factor();
-      if (scene.parts[p].active and !(std::isfinite(a) and a >= 0))
-        throw InputError(scene.parts[p].where.text() + ": activation.time is "
-                         + std::to_string(a) + " at t = " + std::to_string(t)
-                         + "; it must be finite and >= 0");
-    }
-    for (auto& [constant, bc] : moving)
+      constant->value = {bc->value(t)};
       if (!std::isfinite(constant->value[0]))
         throw InputError(bc->where.text() + ": the prescribed displacement is "
                          + std::to_string(constant->value[0]) + " at t = " + std::to_string(t));
-  }
+    }
+  };
+  // ... and at every output time before the first solve: a negative
+  // activation at t = 0.1 s should not cost a run to 0.1 s
+  const int remaining_steps = static_cast<int>(
+      std::ceil((stepping.t_end - stepping.t_start) / stepping.dt - 1e-9));
+  for (int k = 0; k <= remaining_steps; ++k)
+    set_time(std::min(stepping.t_start + k * stepping.dt, stepping.t_end));
   if (options.check_only)
     return;
   set_time(stepping.t_start);
@@ -658,13 +700,24 @@ void run_scene(const Scene& scene, const RunOptions& options)
   else
     write_fields(stepping.t_start);
 
-  const int steps = step + static_cast<int>(std::ceil(
-                               (stepping.t_end - stepping.t_start) / stepping.dt - 1e-9));
+  const int steps = step + remaining_steps;
+  std::vector<std::string> series_columns;
+  for (const SeriesQuantity& q : scene.output.series)
+    series_columns.push_back(q.name);
   const int first_step = step;
+  // the quantities at the start (a resumed run with nothing left to do reports these)
   std::vector<double> last(scene.output.series.size(), 0.0);
+  if (need_nodal_forces)
+    solver.assemble_nodal_forces(nodal);
+  for (std::size_t k = 0; k < measure.size(); ++k)
+    last[k] = measure[k]();
   const auto stepping_start = Clock::now();
   double output_time = 0; // series, fields, checkpoints
-  auto failure = stepper.run(
+  std::optional<StepFailure> failure;
+  std::string input_error; // a formula gone bad at a sub-step
+  try
+  {
+  failure = stepper.run(
       [&](const StepRecord& r)
       {
         ++step;
@@ -711,10 +764,16 @@ void run_scene(const Scene& scene, const RunOptions& options)
                             {"successes", r.successes}, {"newton_iterations", total_newton},
                             {"linear_iterations", total_linear}, {"cutbacks", total_cutbacks},
                             {"wall_time", elapsed},
-                            {"scene_fingerprint", fingerprint(scene.physics)}});
+                            {"scene_fingerprint", fingerprint(scene.physics)},
+                            {"series_columns", series_columns}});
         output_time += seconds_since(output_start);
         return true;
       });
+  }
+  catch (const InputError& e)
+  {
+    input_error = e.what();
+  }
 
   const double stepping_time = seconds_since(stepping_start);
   // The last converged state is kept whatever happened
@@ -733,7 +792,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
         {"newton_iterations", total_newton}, {"linear_iterations", total_linear},
         {"cutbacks", total_cutbacks}, {"wall_time", previous_wall + seconds_since(start)},
         {"resumed", options.resume}, {"ranks", dolfinx::MPI::size(MPI_COMM_WORLD)},
-        {"completed", !failure}, {"built", built},
+        {"completed", !failure and input_error.empty()}, {"built", built},
         {"timings", {{"setup_s", setup_time},
                      {"solve_s", stepping_time - output_time},
                      {"output_s", output_time}}},
@@ -742,6 +801,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
       summary["final"][scene.output.series[k].name] = last[k];
     if (!assembly.is_null())
       summary["assembly"] = assembly;
+    if (!input_error.empty())
+      summary["failure"] = {{"reason", input_error}};
     if (failure)
       summary["failure"] = {{"t_converged", failure->t_converged},
                             {"t_attempted", failure->t_attempted},
@@ -755,8 +816,11 @@ void run_scene(const Scene& scene, const RunOptions& options)
   if (scene.output.plots and !scene.output.series.empty())
     run_plot_script("demos/scene/plot_series.py",
                     {options.out + "/series.png", series_path, scene.title});
+  if (!input_error.empty())
+    throw InputError(input_error + " (the state at the last converged step is written to "
+                     + options.out + ")");
   if (failure)
-    throw SolveError("Newton failed at step " + std::to_string(failure->step) + " going from t = "
+    throw SolveError("Newton failed at step " + std::to_string(step + 1) + " going from t = "
                      + std::to_string(failure->t_converged) + " to "
                      + std::to_string(failure->t_attempted) + " s (" + failure->reason + "; "
                      + std::to_string(failure->cutbacks) + " cutbacks, "

@@ -453,6 +453,8 @@ ActivationScale read_scale(const Entry& e, const std::string& directory)
         v[name].fail("'" + v[name].text() + "' must be >= 0");
     }
     s.other = e["other"].number(0);
+    if (s.other < 0)
+      e["other"].fail("'" + e["other"].text() + "' must be >= 0");
   }
   else if (kind == "expression")
   {
@@ -690,6 +692,20 @@ Scene parse_scene(const std::string& text, const std::string& name,
       if (!scene.petsc_options.empty() and scene.petsc_options[0][0] != '-')
         s["petsc"].fail("PETSc options start with '-', e.g. \"-snes_monitor -ksp_type gmres\"");
     }
+  }
+
+  // what a checkpoint must match also covers the parameter values (parameter
+  // files included) and the data files' contents
+  for (const Part& part : scene.parts)
+  {
+    scene.physics += part.parameters.to_text();
+    for (const std::string& path : {part.fibres.path, part.activation_scale.path})
+      if (!path.empty())
+      {
+        std::stringstream data;
+        data << std::ifstream(path).rdbuf();
+        scene.physics += path + ":" + std::to_string(std::hash<std::string>{}(data.str())) + "\n";
+      }
   }
 
   // output

@@ -98,12 +98,38 @@ def same_as_fusiform_demo(build, tmp, case, column, t_end, value):
           f"fusiform_{case}: {column} {value:.10g} equals the fusiform demo's {reference:.10g}")
 
 
+def section_force_in_shear(build, tmp):
+    """Equilibrium of a sheared block: the x force through the mid-plane equals
+    the x reaction at the bottom (the side of a cell is decided along the
+    plane's normal, z, not along the force component)."""
+    text = absolute_paths(open(os.path.join(SCENES, "block_graded.yaml")).read())
+    text = text.replace("{displacement: top, component: x, value: 0}",
+                        "{displacement: top, component: x, value: {ramp: {duration: 0.02, value: 1}}}")
+    text = text.replace("  - {uniform_axial: top, component: z}\n", "  - {displacement: top, component: z, value: 0}\n")
+    text = text.replace("    - {name: min_J, quantity: min_J}\n",
+                        "    - {name: Fx_bottom, quantity: reaction, surface: bottom, component: x}\n"
+                        "    - {name: Fx_middle, quantity: section_force, surface: middle, component: x}\n"
+                        "    - {name: Fz_bottom, quantity: reaction, surface: bottom, component: z}\n"
+                        "    - {name: Fz_middle, quantity: section_force, surface: middle, component: z}\n")
+    path = os.path.join(tmp, "shear.yaml")
+    with open(path, "w") as f:
+        f.write(text)
+    out = os.path.join(tmp, "shear")
+    r = run(build, [path, "--out", out, "--quiet", "--t-end", "0.02"])
+    final = json.load(open(os.path.join(out, "summary.json")))["final"] if r.returncode == 0 else {}
+    for c in "xz":
+        a, b = final.get(f"F{c}_bottom", math.nan), final.get(f"F{c}_middle", math.nan)
+        check(abs(a) > 1 and abs(a - b) <= 1e-6 * abs(a),
+              f"sheared block: {c} section force {b:.6f} = {c} reaction {a:.6f} mN")
+
+
 def demos(build):
     horizons = {"block_muscle_tendon": 0.03, "fusiform_isometric": 0.02, "fusiform_free": 0.02, "fusiform_passive_stretch": 0.03,
                 "block_graded": 0.03, "block_wave": 0.03, "block_cell_data": 0.005}
     names = sorted(f[:-5] for f in os.listdir(SCENES) if f.endswith(".yaml"))
     check(set(names) == set(horizons), f"every demo scene is tested ({names})")
     with tempfile.TemporaryDirectory() as tmp:
+        section_force_in_shear(build, tmp)
         for name in names:
             out = os.path.join(tmp, name)
             r = run(build, [os.path.join(SCENES, name + ".yaml"), "--out", out, "--quiet",
@@ -200,6 +226,16 @@ BROKEN = [
     ("displacement formula not finite", B, "{displacement: top, component: x, value: 0}",
      "{displacement: top, component: x, value: {expression: \"sqrt(0.05 - t)\"}}",
      ["boundary[1]", "prescribed displacement is", "nan", "t = 0.06"], True),
+    ("displacement NaN at an end time off the step grid", B,
+     ("{displacement: top, component: x, value: 0}", "time: {end: 0.1, step: 0.01}"),
+     ("{displacement: top, component: x, value: {expression: \"sqrt(0.095 - t)\"}}",
+      "time: {end: 0.1, step: 0.03}"), ["boundary[1]", "prescribed displacement is", "t = 0.1"], True),
+    ("negative scale outside the groups", B, "upper: 0.5}}", "upper: 0.5}, other: -1}",
+     ["activation.scale.other", "must be >= 0"], True),
+    ("section force through a surface that is not a plane", B,
+     "{name: u3_middle, quantity: displacement, surface: middle, component: z}",
+     "{name: u3_middle, quantity: section_force, surface: sides, component: z}",
+     ["output.series[2]", "needs a plane surface", "'sides'"], True),
     ("scene is a list", B, "title:", "- title:", ["a scene is a mapping"], False),
 ]
 
@@ -213,12 +249,16 @@ def broken(build):
     with tempfile.TemporaryDirectory() as tmp:
         for what, base, old, new, fragments, line_check in BROKEN:
             text = open(os.path.join(SCENES, base + ".yaml")).read()
-            if old not in text:
-                check(False, f"{what}: test table out of date ('{old}' not in {base}.yaml)")
+            olds, news = (old, new) if isinstance(old, tuple) else ((old,), (new,))
+            if any(o not in text for o in olds):
+                check(False, f"{what}: test table out of date ('{olds}' not in {base}.yaml)")
                 continue
-            line = text[:text.index(old)].count("\n") + 1
+            line = text[:text.index(olds[0])].count("\n") + 1
+            mutated = text
+            for o, n in zip(olds, news):
+                mutated = mutated.replace(o, n, 1)
             # relative paths made absolute (same length in lines) for the copy in tmp
-            mutated = absolute_paths(text.replace(old, new, 1))
+            mutated = absolute_paths(mutated)
             path = os.path.join(tmp, base + ".yaml")
             with open(path, "w") as f:
                 f.write(mutated)
@@ -290,7 +330,7 @@ def resume(build):
         with open(changed, "w") as f:
             f.write(text.replace("upper: 0.5", "upper: 0.6"))
         r = run(build, [changed, "--out", killed, "--resume", "--quiet"])
-        check(r.returncode == 2 and "parts or boundary changed" in r.stderr + r.stdout,
+        check(r.returncode == 2 and "changed since the checkpoint" in r.stderr + r.stdout,
               "resuming with changed physics is refused")
         # solver and time settings may change (e.g. a smaller step after a failure)
         with open(changed, "w") as f:
@@ -302,6 +342,20 @@ def resume(build):
             print(r.stdout[-500:], r.stderr[-500:])
         check(r.returncode == 0 and len(rows) == 10 + 10, f"resuming with a new time step and line search "
               f"extends the finished run from its checkpoint ({len(rows)} rows: 10 steps to 0.1 s, 10 to 0.15 s)")
+        bins = [f for f in os.listdir(killed) if f.startswith("checkpoint_") and f.endswith(".bin")]
+        check(len(bins) == 1, f"one checkpoint binary is kept ({bins})")
+        # nothing left to do: the summary reports the state at the checkpoint, not zeros
+        before = json.load(open(os.path.join(killed, "summary.json")))["final"]
+        r = run(build, [changed, "--out", killed, "--resume", "--quiet"])
+        after = json.load(open(os.path.join(killed, "summary.json")))["final"] if r.returncode == 0 else {}
+        check(r.returncode == 0 and all(abs(after[k] - before[k]) <= 1e-12 * max(abs(before[k]), 1)
+                                        for k in before),
+              f"resuming a finished run changes nothing ({after})")
+        with open(changed, "w") as f:
+            f.write(text.replace("    - {name: min_J, quantity: min_J}\n", ""))
+        r = run(build, [changed, "--out", killed, "--resume", "--quiet"])
+        check(r.returncode == 2 and "output.series changed" in r.stderr + r.stdout,
+              "resuming with other series columns is refused")
         r = run(build, [scene, "--out", os.path.join(tmp, "empty"), "--resume", "--quiet"])
         check(r.returncode == 2 and "no checkpoint" in r.stderr + r.stdout, "resuming without checkpoint is refused")
 
@@ -439,6 +493,19 @@ def parts(build):
             worst = max((abs(a[k] - b[k]) / max(abs(a[k]), 1e-12) for k in a), default=math.inf)
             check(bool(a) and worst <= 1e-9,
                   f"{name}: two parts of one material = one part (worst relative difference {worst:.1e})")
+        # per-part formulas and kernels on 2 ranks
+        path = os.path.join(tmp, "two_wave.yaml")
+        with open(path, "w") as f:
+            f.write(two_wave)
+        r = run(build, [path, "--out", os.path.join(tmp, "two_wave2"), "--quiet", "--t-end", "0.02"], ranks=2)
+        one = os.path.join(tmp, "one", "summary.json")  # the one-part wave from the loop above
+        if r.returncode == 0:
+            a = json.load(open(one))["final"]
+            b = json.load(open(os.path.join(tmp, "two_wave2", "summary.json")))["final"]
+            worst = max(abs(a[k] - b[k]) / max(abs(a[k]), 1.0) for k in a)
+        else:
+            worst = math.inf
+        check(worst <= 1e-8, f"two-part GIANT wave on 2 ranks = one part on 1 rank ({worst:.1e})")
         scene = os.path.join(SCENES, "block_muscle_tendon.yaml")
         outs = [os.path.join(tmp, f"mt{n}") for n in (1, 2)]
         for n, out in zip((1, 2), outs):
@@ -452,7 +519,7 @@ def parts(build):
         check(built[0]["forms"] == "combi" and built[1]["forms"] == "ehret_passive"
               and not built[1]["activation_terms"], f"the tendon builds passive forms only ({built})")
         f = a["final"]
-        check(f["epsilon"] < 1 and f["F33_middle"] < 1e-6 * 1e3,
+        check(f["epsilon"] < 1 and abs(f["F33_middle"]) < 1e-6 * 1e3,
               f"the free body shortens ({f['epsilon']:.4f}) and carries no axial force ({f['F33_middle']:.2e} mN)")
 
 
@@ -468,6 +535,19 @@ def parity(build):
             b = json.load(open(os.path.join(two, "summary.json")))["final"]
             worst = max(abs(a[k] - b[k]) / max(abs(a[k]), 1e-12) for k in a)
             check(worst <= 1e-8, f"1 and 2 ranks agree (worst relative difference {worst:.1e})")
+        # an error in the cells of one rank only stops both ranks with the message
+        local = absolute_paths(open(scene).read()).replace(
+            "scale: {groups: {lower: 1.0, upper: 0.5}}", "scale: {expression: \"1 - 2*(z > 27)\"}")
+        path = os.path.join(tmp, "local.yaml")
+        with open(path, "w") as f:
+            f.write(local)
+        try:
+            r = run(build, [path, "--out", os.path.join(tmp, "local"), "--quiet", "--check"], ranks=2, timeout=120)
+            outcome = (r.returncode, r.stdout + r.stderr)
+        except subprocess.TimeoutExpired:
+            outcome = (None, "hung")
+        check(outcome[0] == 2 and "activation scale is -1" in outcome[1],
+              f"an error in one rank's cells stops both ranks: exit {outcome[0]}, {outcome[1][-200:]}")
         # killed on one rank, resumed on two
         kill_after(build, scene, mixed, 2, extra=["--t-end", "0.05"])
         r = run(build, [scene, "--out", mixed, "--resume", "--quiet", "--t-end", "0.05"], ranks=2)
