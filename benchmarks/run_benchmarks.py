@@ -1,0 +1,801 @@
+#!/usr/bin/python3
+"""Issue 7: the performance benchmarks and the speed-accuracy map, as one command.
+
+    benchmarks/run_benchmarks.py [PHASE ...] [--build DIR] [--work DIR] [--reuse]
+
+Phases (default: all, in this order; each is cheap to rerun with --reuse):
+  assembly  build/bench-assembly: Jacobian / residual / kernel time of every model
+            against compressible Neo-Hooke (same mesh, element, quadrature)
+  instructions  the same under callgrind: instruction counts per operation, which
+            do not depend on the load of a shared machine
+  e2e       isometric COMBI contraction 0..0.15 s, Q1 hex, n = 1, 2 (MUMPS, one rank)
+  solvers   MUMPS vs GMRES+GAMG vs GMRES+BoomerAMG; 1 vs 2 MPI ranks
+  map       speed-accuracy map (COMBI): element (Q1, Q2, P1, P2), refinement, time
+            step, penalty kappa; isometric F33 and free epsilon at t = 0.15 s; in groups
+            map-cheap, map-q2 (reference), map-n2-isometric, map-n2-free, map-late
+            (P2 n = 1, P1 n = 2, --map-extra)
+  solvers-n1, solvers-n2   the solver comparison at one refinement
+  report    tables (stdout + Markdown), docs/images/speed_accuracy.png and
+            benchmarks/results.json from everything measured so far
+
+Every fusiform run goes to WORK/runs/NAME (summary.json, series.csv, time.txt with
+peak RSS, loadavg before/after); --reuse keeps completed runs.  Each phase stores its
+records in WORK/records.json, so the report can be rebuilt at any time.
+"""
+import argparse
+import datetime
+import json
+import math
+import os
+import platform
+import shlex
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+T_END = 0.15
+
+
+def loadavg():
+    with open("/proc/loadavg") as f:
+        return [float(x) for x in f.read().split()[:3]]
+
+
+def git_commit():
+    try:
+        commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "HEAD"], capture_output=True,
+                                text=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True).stdout.strip()
+        return commit + ("+dirty" if dirty else "")
+    except OSError:
+        return "unknown"
+
+
+def machine_info():
+    info = {"hostname": platform.node(), "kernel": platform.release(),
+            "python": platform.python_version()}
+    try:
+        lscpu = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
+        for line in lscpu.splitlines():
+            key, _, value = line.partition(":")
+            if key.strip() in ("Model name", "CPU(s)", "Thread(s) per core", "L2 cache",
+                               "L3 cache", "CPU max MHz", "Architecture"):
+                info[key.strip()] = value.strip()
+    except OSError:
+        pass
+    with open("/proc/meminfo") as f:
+        for line in f:
+            if line.startswith("MemTotal"):
+                info["MemTotal_GiB"] = round(int(line.split()[1]) / 2**20, 1)
+    return info
+
+
+# ---------------------------------------------------------------------------
+# records
+# ---------------------------------------------------------------------------
+class Records:
+    def __init__(self, path):
+        self.path = path
+        self.data = {}
+        if os.path.exists(path):
+            with open(path) as f:
+                self.data = json.load(f)
+
+    def put(self, phase, key, value):
+        if os.path.exists(self.path):  # another driver may have written meanwhile
+            with open(self.path) as f:
+                on_disk = json.load(f)
+            for p, entries in on_disk.items():
+                for k, v in entries.items():
+                    if k not in self.data.get(p, {}):
+                        self.data.setdefault(p, {})[k] = v
+        self.data.setdefault(phase, {})[key] = value
+        self.save()
+
+    def save(self):
+        tmp = self.path + ".tmp"
+        with open(tmp, "w") as f:
+            json.dump(self.data, f, indent=1)
+        os.replace(tmp, self.path)
+
+
+def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc=()):
+    name = f"{model}_{case}_{cell}{degree}_n{n}_dt{dt:g}_{solver}_np{np}"
+    for s in sets:
+        name += "_" + s.replace("=", "")
+    for p in petsc:
+        name += "_" + p.strip("-").replace(" ", "")
+    return name
+
+
+def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, dt=0.05,
+             solver="lu", np=1, sets=(), petsc=(), timeout=None):
+    """One fusiform run (cached with --reuse); returns a flat record."""
+    name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc)
+    out = os.path.join(args.work, "runs", name)
+    summary_path = os.path.join(out, "summary.json")
+    record_path = os.path.join(out, "record.json")
+    if args.reuse and os.path.exists(record_path):
+        with open(record_path) as f:
+            record = json.load(f)
+        if record.get("completed") or record.get("final_failure"):
+            print(f"  reuse {name}" + ("" if record.get("completed") else " (failed)"),
+                  flush=True)
+            return record
+    while args.reuse and running_elsewhere(out):  # a run left by a stopped driver
+        time.sleep(5)
+    if args.reuse and not os.path.exists(record_path) and os.path.exists(summary_path):
+        adopted = adopt(name, out, dict(solver=solver, ranks=np, sets=list(sets),
+                                        petsc=list(petsc)))
+        if adopted:
+            return adopted
+    os.makedirs(out, exist_ok=True)
+    if args.deadline:
+        left = (args.deadline - datetime.datetime.now(datetime.timezone.utc)).total_seconds()
+        if left < 60:
+            print(f"  skip {name}: past the deadline", flush=True)
+            return {"name": name, "skipped": "deadline", "completed": False, "model": model,
+                    "case": case, "cell": cell, "degree": degree, "n": n, "dt": dt,
+                    "solver": solver, "ranks": np, "sets": list(sets),
+                    "element": element_name(cell, degree)}
+        timeout = min(timeout or left, left)
+    command = [os.path.join(args.build, "fusiform"), "--model", model, "--case", case,
+               "--refinement", str(n), "--cell", cell, "--degree", str(degree),
+               "--dt", repr(dt), "--linear-solver", solver, "--no-fields", "--quiet",
+               "--out", out]
+    for s in sets:
+        command += ["--set", s]
+    for p in petsc:
+        command += shlex.split(p)
+    if np > 1:
+        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(np), *command]
+    time_file = os.path.join(out, "time.txt")
+    command = ["/usr/bin/time", "-f", "%M %e %U %S", "-o", time_file, *command]
+    before = loadavg()
+    print("  " + " ".join(command[5:]), flush=True)
+    start = time.time()
+    for attempt in range(6):  # build/fusiform may be being relinked by someone else
+        if os.path.exists(os.path.join(args.build, "fusiform")):
+            break
+        time.sleep(20)
+    try:
+        result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+        returncode, stderr = result.returncode, result.stderr
+    except subprocess.TimeoutExpired:
+        returncode, stderr = "timeout", f"killed after {timeout} s"
+    elapsed = time.time() - start
+    after = loadavg()
+    record = {"name": name, "model": model, "case": case, "cell": cell, "degree": degree,
+              "element": element_name(cell, degree), "n": n, "dt": dt, "solver": solver,
+              "ranks": np, "sets": list(sets), "petsc": list(petsc),
+              "command": " ".join(shlex.quote(c) for c in command[5:]),
+              "elapsed": elapsed, "loadavg_before": before, "loadavg_after": after,
+              "binary_mtime": binary_mtime(args),
+              "returncode": returncode, "completed": False}
+    if os.path.exists(summary_path) and os.path.getmtime(summary_path) >= start - 1:
+        with open(summary_path) as f:
+            summary = json.load(f)
+        record.update({k: summary.get(k) for k in (
+            "F33", "epsilon", "volume_change", "wall_time", "newton_iterations",
+            "linear_iterations", "cutbacks", "steps", "unknowns", "cells", "nodes",
+            "completed")})
+    if os.path.exists(time_file):
+        try:
+            with open(time_file) as f:
+                last = f.read().strip().splitlines()[-1].split()
+            record["peak_rss_MiB"] = round(int(last[0]) / 1024, 1)
+            if len(last) >= 4:  # user + system CPU seconds (all processes, all ranks)
+                record["cpu_time"] = float(last[2]) + float(last[3])
+        except (ValueError, IndexError):
+            pass
+    if record.get("newton_iterations"):
+        record["newton_per_step"] = record["newton_iterations"] / max(1, record["steps"])
+        record["krylov_per_newton"] = record["linear_iterations"] / record["newton_iterations"]
+    if returncode != 0:
+        record["error"] = stderr.strip()[-800:]
+        # a solver failure (exit 3) is a result, not to be retried by --reuse
+        record["final_failure"] = returncode == 3 or returncode == "timeout"
+        print(f"    FAILED ({returncode}): {record['error'][-300:]}", flush=True)
+    print(f"    {elapsed:.1f} s  load {before[0]:.2f}->{after[0]:.2f}  "
+          f"F33={record.get('F33')} eps={record.get('epsilon')} "
+          f"newton={record.get('newton_iterations')} lin={record.get('linear_iterations')} "
+          f"rss={record.get('peak_rss_MiB')} MiB", flush=True)
+    with open(record_path, "w") as f:
+        json.dump(record, f, indent=1)
+    return record
+
+
+def binary_mtime(args):
+    """When build/fusiform was linked (others may rebuild it between runs)."""
+    try:
+        return datetime.datetime.fromtimestamp(
+            os.path.getmtime(os.path.join(args.build, "fusiform")),
+            datetime.timezone.utc).isoformat(timespec="seconds")
+    except OSError:
+        return None
+
+
+def running_elsewhere(out):
+    """Is a fusiform process writing to `out` (left by a stopped driver)?"""
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                words = f.read().split(b"\0")
+        except OSError:
+            continue
+        if words and words[0].endswith(b"fusiform") and out.encode() in words:
+            return True
+    return False
+
+
+def adopt(name, out, base):
+    """A run whose driver was stopped but which finished by itself: its summary and
+    /usr/bin/time output are kept; the load average is the one at adoption."""
+    with open(os.path.join(out, "summary.json")) as f:
+        summary = json.load(f)
+    if not summary.get("completed") or not os.path.exists(os.path.join(out, "time.txt")):
+        return None
+    record = {"name": name, "model": summary["model"], "case": summary["case"],
+              "cell": summary["cell"], "degree": summary["degree"],
+              "element": element_name(summary["cell"], summary["degree"]),
+              "n": summary["refinement"], "dt": summary["dt"], **base,
+              "elapsed": summary["wall_time"], "loadavg_before": loadavg(),
+              "loadavg_after": loadavg(), "adopted": True}
+    for k in ("F33", "epsilon", "volume_change", "wall_time", "newton_iterations",
+              "linear_iterations", "cutbacks", "steps", "unknowns", "cells", "nodes",
+              "completed"):
+        record[k] = summary.get(k)
+    with open(os.path.join(out, "time.txt")) as f:
+        words = f.read().split()
+    record["peak_rss_MiB"] = round(int(words[0]) / 1024, 1)
+    if len(words) >= 4:
+        record["cpu_time"] = float(words[2]) + float(words[3])
+    record["newton_per_step"] = record["newton_iterations"] / max(1, record["steps"])
+    record["krylov_per_newton"] = record["linear_iterations"] / record["newton_iterations"]
+    with open(os.path.join(out, "record.json"), "w") as f:
+        json.dump(record, f, indent=1)
+    print(f"  adopted {name}", flush=True)
+    return record
+
+
+def element_name(cell, degree):
+    return {"hex": "Q", "tet": "P"}[cell] + str(degree)
+
+
+# ---------------------------------------------------------------------------
+# phases
+# ---------------------------------------------------------------------------
+def phase_assembly(args, records):
+    binary = os.path.join(args.build, "bench-assembly")
+    for element in args.assembly_elements:
+        cell, degree = {"Q1": ("hex", 1), "Q2": ("hex", 2), "P1": ("tet", 1),
+                        "P2": ("tet", 2)}[element]
+        out = os.path.join(args.work, f"assembly_{element}_n{args.assembly_n}.json")
+        if args.reuse and os.path.exists(out):
+            with open(out) as f:
+                records.put("assembly", element, json.load(f))
+            print(f"  reuse {out}")
+            continue
+        command = [binary, "--refinement", str(args.assembly_n), "--cell", cell, "--degree",
+                   str(degree), "--repetitions", str(args.repetitions), "--json", out]
+        print("  " + " ".join(command), flush=True)
+        result = subprocess.run(command, capture_output=True, text=True)
+        print(result.stdout, end="", flush=True)
+        if result.returncode != 0:
+            print(f"    FAILED: {result.stderr[-600:]}", flush=True)
+            continue
+        with open(out) as f:
+            records.put("assembly", element, json.load(f))
+
+
+def phase_instructions(args, records):
+    """Instruction counts per operation (callgrind; independent of the machine's load)."""
+    import glob
+    binary = os.path.join(args.build, "bench-assembly")
+    for element in args.instruction_elements:
+        cell, degree = {"Q1": ("hex", 1), "Q2": ("hex", 2), "P1": ("tet", 1),
+                        "P2": ("tet", 2)}[element]
+        if args.reuse and element in records.data.get("instructions", {}):
+            print(f"  reuse instructions {element}")
+            continue
+        folder = os.path.join(args.work, f"callgrind_{element}")
+        os.makedirs(folder, exist_ok=True)
+        for old in glob.glob(os.path.join(folder, "callgrind.out*")):
+            os.remove(old)
+        command = ["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                   f"--callgrind-out-file={folder}/callgrind.out.%p", binary,
+                   "--refinement", "1", "--cell", cell, "--degree", str(degree),
+                   "--repetitions", "1"]
+        print("  " + " ".join(command), flush=True)
+        start = time.time()
+        result = subprocess.run(command, capture_output=True, text=True)
+        if result.returncode != 0:
+            print(f"    FAILED: {result.stderr[-600:]}", flush=True)
+            continue
+        table = parse_callgrind(folder, verbose=True)
+        with open(os.path.join(folder, "seconds.txt"), "w") as f:
+            f.write(f"{time.time() - start:.1f}\n")
+        records.put("instructions", element, {"cell": cell, "degree": degree, "refinement": 1,
+                                              "seconds": time.time() - start,
+                                              "counts": table})
+
+
+def parse_callgrind(folder, verbose=False):
+    """Instruction counts per "MODEL:OPERATION" dump of one bench-assembly run."""
+    import glob
+    counts = {}
+    for path in glob.glob(os.path.join(folder, "callgrind.out*")):
+        label, total = None, None
+        with open(path) as f:
+            for line in f:
+                if line.startswith("desc: Trigger: Client Request:"):
+                    label = line.split(":", 3)[3].strip()
+                elif line.startswith("totals:"):
+                    total = int(line.split()[1])
+        if label and total is not None:
+            counts[label] = total
+    if "neohooke:jacobian" not in counts:
+        return None
+    # only models whose Jacobian and residual are both in (a run still going has not)
+    models = sorted(m for m in {k.split(":")[0] for k in counts}
+                    if f"{m}:jacobian" in counts and f"{m}:residual" in counts)
+    nh = counts["neohooke:jacobian"] + counts["neohooke:residual"]
+    table = {}
+    for m in models:
+        jac, res, ker = (counts.get(f"{m}:{op}", 0) for op in ("jacobian", "residual",
+                                                               "kernel"))
+        table[m] = {"jacobian": jac, "residual": res, "kernel": ker,
+                    "jacobian_ratio": jac / counts["neohooke:jacobian"],
+                    "residual_ratio": res / counts["neohooke:residual"],
+                    "newton_ratio": (jac + res + ker) / nh}
+        if verbose:
+            print(f"    {m:9s} J {jac:.3e}  r {res:.3e}  k {ker:.3e}  J/NH "
+                  f"{table[m]['jacobian_ratio']:.2f}  r/NH {table[m]['residual_ratio']:.2f}  "
+                  f"(J+r+k)/NH {table[m]['newton_ratio']:.2f}", flush=True)
+    return table
+
+
+def collect(args):
+    """Everything measured so far, from the files on disk (robust against several
+    drivers writing records.json at once)."""
+    import glob
+    data = {"assembly": {}, "instructions": {}, "e2e": {}, "solvers": {}, "map": {}}
+    for element in ("Q1", "Q2", "P1", "P2"):
+        path = os.path.join(args.work, f"assembly_{element}_n{args.assembly_n}.json")
+        if os.path.exists(path):
+            with open(path) as f:
+                data["assembly"][element] = json.load(f)
+        folder = os.path.join(args.work, f"callgrind_{element}")
+        table = parse_callgrind(folder) if os.path.isdir(folder) else None
+        if table:
+            cell, degree = {"Q1": ("hex", 1), "Q2": ("hex", 2), "P1": ("tet", 1),
+                            "P2": ("tet", 2)}[element]
+            data["instructions"][element] = {"cell": cell, "degree": degree, "refinement": 1,
+                                             "counts": table}
+    for path in sorted(glob.glob(os.path.join(args.work, "assembly_*_n[2-9].json"))):
+        with open(path) as f:  # extra refinements, e.g. bench-assembly --refinement 4
+            data["assembly"][os.path.basename(path)[9:-5]] = json.load(f)
+    for path in sorted(glob.glob(os.path.join(args.work, "runs", "*", "record.json"))):
+        with open(path) as f:
+            r = json.load(f)
+        r.setdefault("petsc", [])
+        plain = not r["sets"] and not r["petsc"]
+        if r["model"] == "combi" and r["case"] == "isometric" and r["element"] == "Q1" \
+                and r["dt"] == args.e2e_dt and not r["petsc"] \
+                and (plain or (r["solver"] != "lu" or r["ranks"] > 1)
+                     or r["sets"] == ["kappa=100"]):
+            data["solvers"][r["name"]] = r
+            if r["solver"] == "lu" and r["ranks"] == 1 and plain:
+                data["e2e"][r["name"]] = r
+        if r["model"] == "combi" and r["solver"] == "lu" and r["ranks"] == 1:
+            data["map"][r["name"]] = r
+    path = os.path.join(args.work, "experiment_fno_math_errno.json")
+    if os.path.exists(path):  # hand-made experiment, see BENCHMARKS.md
+        with open(path) as f:
+            data["experiments"] = {"fno_math_errno": json.load(f)}
+    return data
+
+
+def phase_e2e(args, records):
+    for n in args.e2e_refinements:
+        for model in args.e2e_models:
+            r = fusiform(args, model=model, n=n, dt=args.e2e_dt)
+            records.put("e2e", r["name"], r)
+
+
+def failed_before(args, solver, n_max, sets=()):
+    """Did this iterative solver already fail on a run at refinement <= n_max?"""
+    for n in range(1, n_max + 1):
+        path = os.path.join(args.work, "runs", run_name("combi", "isometric", "hex", 1, n,
+                                                        args.e2e_dt, solver, 1, sets),
+                            "record.json")
+        if os.path.exists(path):
+            with open(path) as f:
+                if not json.load(f).get("completed"):
+                    return True
+    return False
+
+
+def phase_solvers(args, records, refinements=None):
+    """MUMPS against GMRES + GAMG / BoomerAMG, 1 and 2 ranks.  An iterative solver that
+    failed on one rank is not retried on two ranks or on a finer mesh (each failure
+    burns every cutback: about 4 minutes at n = 1); instead it is tried once with a
+    softer penalty (kappa = 100), where the system is better conditioned."""
+    for n in refinements or args.solver_refinements:
+        for solver in ("lu", "gmres-hypre", "gmres-gamg"):
+            for np in (1, 2):
+                if solver != "lu" and failed_before(args, solver, n if np == 2 else n - 1):
+                    print(f"  skip {solver} n={n} ranks={np}: failed before", flush=True)
+                    continue
+                if n > 1 and np == 2 and solver != "lu":
+                    continue  # n = 2: the iterative solvers on one rank only (time)
+                r = fusiform(args, model="combi", n=n, dt=args.e2e_dt, solver=solver, np=np)
+                records.put("solvers", r["name"], r)
+        if n == 1:
+            for solver in ("gmres-hypre", "gmres-gamg"):
+                if failed_before(args, solver, 1):
+                    r = fusiform(args, model="combi", n=1, dt=args.e2e_dt, solver=solver,
+                                 sets=("kappa=100",))
+                    records.put("solvers", r["name"], r)
+
+
+def map_runs(args, group):
+    """kwargs of the speed-accuracy map (COMBI), by group, cheapest first."""
+    dt = args.map_dt
+    both = lambda **kw: [dict(case=c, **kw) for c in ("isometric", "free")]
+    if group == "cheap":  # Q1 and P1 at n = 1, time step and penalty sweeps
+        runs = both(cell="hex", degree=1, n=1, dt=dt) + both(cell="tet", degree=1, n=1, dt=dt)
+        for step in (0.15, 0.01):
+            runs += both(cell="hex", degree=1, n=1, dt=step)
+        for kappa in (100, 300, 3000, 10000):
+            runs += both(cell="hex", degree=1, n=1, dt=dt, sets=(f"kappa={kappa}",))
+        return runs
+    if group == "q2":  # the reference; failing first-step attempts stopped after 10
+        # Newton iterations in the free case (the end state does not depend on it)
+        return [dict(case="isometric", cell="hex", degree=2, n=1, dt=dt),
+                dict(case="free", cell="hex", degree=2, n=1, dt=dt, petsc=("-snes_max_it 10",))]
+    if group == "n2-isometric":
+        return [dict(case="isometric", cell="hex", degree=1, n=2, dt=dt)]
+    if group == "n2-free":  # as q2: failing attempts stopped after 10 iterations
+        return [dict(case="free", cell="hex", degree=1, n=2, dt=dt, petsc=("-snes_max_it 10",))]
+    if group == "late":
+        runs = both(cell="tet", degree=2, n=1, dt=dt) + both(cell="tet", degree=1, n=2, dt=dt)
+        return runs + [dict(case=case, **extra) for extra in args.map_extra
+                       for case in ("isometric", "free")]
+    raise ValueError(group)
+
+
+def phase_map(args, records, groups=("cheap", "q2", "n2-isometric", "n2-free", "late")):
+    for group in groups:
+        for kw in map_runs(args, group):
+            r = fusiform(args, model="combi", timeout=args.map_timeout, **kw)
+            records.put("map", r["name"], r)
+
+
+# ---------------------------------------------------------------------------
+# report
+# ---------------------------------------------------------------------------
+def md_table(header, rows):
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def fmt(x, spec=".3g"):
+    if x is None:
+        return "-"
+    if isinstance(x, float) and not math.isfinite(x):
+        return str(x)
+    return format(x, spec)
+
+
+def load_str(r):
+    return f"{r['loadavg_before'][0]:.2f}/{r['loadavg_after'][0]:.2f}"
+
+
+def assembly_tables(records):
+    out = []
+    for element, data in records.get("assembly", {}).items():
+        rows = []
+        for m in data["models"]:
+            rows.append([m["model"], fmt(m["jacobian_median"] * 1e3, ".1f"),
+                         fmt(m["residual_median"] * 1e3, ".1f"),
+                         fmt(m["kernel_median"] * 1e3, ".1f"),
+                         fmt(m["jacobian_ratio"], ".2f"), fmt(m["residual_ratio"], ".2f"),
+                         fmt(m["newton_ratio"], ".2f"), fmt(m.get("target"), ".1f"),
+                         {True: "yes", False: "NO", None: "-"}[m.get("target_met")]])
+        out.append(f"**{element}**, fusiform n = {data['refinement']}: {data['cells']} cells, "
+                   f"{data['unknowns']} unknowns, quadrature degree {data['quadrature_degree']}, "
+                   f"{data['repetitions']} repetitions (median), load average "
+                   f"{data['loadavg_before'][0]:.2f} -> {data['loadavg_after'][0]:.2f}\n\n"
+                   + md_table(["model", "Jacobian [ms]", "residual [ms]", "kernel [ms]",
+                               "J / NH", "r / NH", "(J + r + kernel) / NH", "target",
+                               "met"], rows))
+    return "\n\n".join(out)
+
+
+def instruction_tables(records):
+    out = []
+    for element, data in records.get("instructions", {}).items():
+        rows = []
+        for m, c in data["counts"].items():
+            target = {"ble": 1.5, "combi": 1.5, "wkm": 2.0, "giant": 2.0}.get(m)
+            rows.append([m, fmt(c["jacobian"] / 1e6, ".1f"), fmt(c["residual"] / 1e6, ".1f"),
+                         fmt(c["kernel"] / 1e6, ".1f"), fmt(c["jacobian_ratio"], ".2f"),
+                         fmt(c["residual_ratio"], ".2f"), fmt(c["newton_ratio"], ".2f"),
+                         fmt(target, ".1f") if target else "-",
+                         ("yes" if c["newton_ratio"] <= target else "NO") if target else "-"])
+        out.append(f"**{element}**, fusiform n = 1 (instructions, callgrind; one call each)\n\n"
+                   + md_table(["model", "Jacobian [M instr]", "residual [M instr]",
+                               "kernel [M instr]", "J / NH", "r / NH",
+                               "(J + r + kernel) / NH", "target", "met"], rows))
+    return "\n\n".join(out)
+
+
+def extrapolate(records):
+    """Power-law fit t = a N^p of the n = 1, 2 runs (COMBI isometric, LU, one rank),
+    evaluated at n = 4 (385,155 unknowns); the same for peak memory."""
+    runs = [r for r in records.get("e2e", {}).values()
+            if r.get("completed") and r["solver"] == "lu" and r["ranks"] == 1]
+    by_n = {r["n"]: r for r in runs}
+    out = {}
+    if 1 in by_n and 2 in by_n:
+        a, b = by_n[1], by_n[2]
+        N4 = 385155
+        for key in ("cpu_time", "wall_time", "peak_rss_MiB"):
+            if a.get(key) and b.get(key):
+                p = math.log(b[key] / a[key]) / math.log(b["unknowns"] / a["unknowns"])
+                out[key] = {"exponent": p,
+                            "n4_estimate": b[key] * (N4 / b["unknowns"]) ** p}
+        # CPU time where both runs have it: the wall time depends on the load
+        key = "cpu_time" if a.get("cpu_time") and b.get("cpu_time") else "wall_time"
+        out["per_newton_basis"] = key
+        per_it = [r[key] / r["newton_iterations"] for r in (a, b)]
+        p = math.log(per_it[1] / per_it[0]) / math.log(b["unknowns"] / a["unknowns"])
+        out["seconds_per_newton"] = {"exponent": p, "n1": per_it[0], "n2": per_it[1],
+                                  "n4_estimate": per_it[1] * (N4 / b["unknowns"]) ** p}
+    return out
+
+
+def run_table(rs):
+    rows = []
+    for r in rs:
+        rows.append([r["model"] + "".join(" " + x for x in r["sets"]), r["case"], r["element"],
+                     r["n"], r.get("unknowns", "-"),
+                     fmt(r["dt"], "g"), r["solver"], r["ranks"],
+                     fmt(r.get("wall_time") or r.get("elapsed"), ".1f"),
+                     fmt(r.get("cpu_time"), ".1f"), r.get("steps", "-"),
+                     fmt(r.get("newton_per_step"), ".1f"), fmt(r.get("krylov_per_newton"), ".1f"),
+                     r.get("cutbacks", "-"), fmt(r.get("peak_rss_MiB"), ".0f"), load_str(r),
+                     "yes" if r.get("completed") else "NO"])
+    return md_table(["model", "case", "element", "n", "unknowns", "dt [s]", "solver", "ranks",
+                     "wall [s]", "CPU [s]", "steps", "Newton/step", "Krylov/Newton", "cutbacks",
+                     "peak RSS [MiB]", "load before/after", "completed"], rows)
+
+
+def map_analysis(records, reference_choice):
+    """Errors against the finest completed reference per case."""
+    runs = [r for r in records.get("map", {}).values() if r.get("completed")]
+    out = {"points": [], "reference": {}}
+    for case, quantity in (("isometric", "F33"), ("free", "epsilon")):
+        # reference: the finest discretisation at preset kappa (most unknowns; Q2 first)
+        candidates = [r for r in runs if r["case"] == case and not r["sets"]]
+        if reference_choice:
+            candidates = [r for r in candidates
+                          if f"{r['element']}_n{r['n']}" == reference_choice] or candidates
+        if not candidates:
+            continue
+        ref = max(candidates, key=lambda r: (r.get("unknowns") or 0, r["degree"],
+                                             -r["dt"]))
+        out["reference"][case] = {"name": ref["name"], "quantity": quantity,
+                                  "value": ref[quantity]}
+        for r in runs:
+            if r["case"] != case or r["name"] == ref["name"]:
+                continue
+            value = r[quantity]
+            # epsilon: error of the shortening 1 - epsilon (what the study measures)
+            if quantity == "epsilon":
+                err = abs(value - ref[quantity]) / abs(1 - ref[quantity])
+            else:
+                err = abs(value - ref[quantity]) / abs(ref[quantity])
+            label = f"{r['element']} n={r['n']} dt={r['dt']:g}" + "".join(
+                " " + s for s in r["sets"] + r.get("petsc", []))
+            out["points"].append({"case": case, "label": label, "name": r["name"],
+                                  "petsc": r.get("petsc", []),
+                                  "value": value, "error": err, "wall_time": r["wall_time"],
+                                  "cpu_time": r.get("cpu_time"),
+                                  "newton_iterations": r.get("newton_iterations"),
+                                  "cutbacks": r.get("cutbacks"),
+                                  "unknowns": r.get("unknowns"), "element": r["element"],
+                                  "n": r["n"], "dt": r["dt"], "sets": r["sets"],
+                                  "loadavg": r["loadavg_before"][0]})
+    return out
+
+
+def pareto(points):
+    front, best = [], math.inf
+    for p in sorted(points, key=lambda p: (p["wall_time"], p["error"])):
+        if p["error"] < best:
+            front.append(p)
+            best = p["error"]
+    return front
+
+
+def plot_map(analysis, path, runs):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    floor = 1e-5  # errors below this are drawn on the floor (equal to the reference)
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
+    markers = {"Q1": "s", "Q2": "D", "P1": "^", "P2": "v"}
+    for ax, case, title in ((axes[0], "isometric", "isometric force F33"),
+                            (axes[1], "free", "free shortening 1 - epsilon")):
+        pts = [p for p in analysis["points"] if p["case"] == case]
+        if case not in analysis["reference"]:
+            continue
+        ref = analysis["reference"][case]
+        ref_run = next(r for r in runs if r["name"] == ref["name"])
+        ax.loglog(ref_run["wall_time"], floor, "*", color="k", ms=14)
+        ax.annotate(f"reference {ref_run['element']} n={ref_run['n']}",
+                    (ref_run["wall_time"], floor), fontsize=7, xytext=(4, 4),
+                    textcoords="offset points")
+        for p in pts:
+            colour = "tab:red" if p["sets"] else ("tab:blue" if p["dt"] == 0.05 else "tab:gray")
+            err = max(p["error"], floor)
+            ax.loglog(p["wall_time"], err, markers.get(p["element"], "o"), color=colour, ms=7)
+            if p["sets"]:
+                text, offset = p["sets"][0].replace("kappa=", "k="), (2, -9)
+            elif p["dt"] != 0.05:
+                text, offset = f"dt={p['dt']:g}", (2, 5)
+            else:
+                text = f"{p['element']} n={p['n']}" + ("*" if p.get("petsc") else "")
+                offset = (4, 2)
+            ax.annotate(text, (p["wall_time"], err), fontsize=6.5, xytext=offset,
+                        textcoords="offset points", color=colour)
+        front = pareto([p for p in pts if not p["sets"]])
+        ax.loglog([p["wall_time"] for p in front], [max(p["error"], floor) for p in front],
+                  "k--", lw=1, label="Pareto front (discretisation, preset kappa)")
+        for level, name in ((0.05, "5 %"), (0.01, "1 %"), (0.001, "0.1 %")):
+            ax.axhline(level, color="0.6", lw=0.8, ls=":")
+            ax.text(ax.get_xlim()[0] if False else 0.99, level, name, fontsize=7,
+                    transform=ax.get_yaxis_transform(), ha="right", va="bottom")
+        ax.set_title(f"COMBI {title} at t = 0.15 s\nerror against {ref['name']}", fontsize=9)
+        ax.set_xlabel("wall time [s] (2-core machine shared with builds: load 3-6)")
+        ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
+        ax.grid(True, which="both", lw=0.3)
+        ax.legend(fontsize=7, loc="center right")
+    fig.text(0.01, 0.01, "squares Q1, diamonds Q2, triangles P1/P2; blue: dt = 0.05 s; grey: "
+             "other time steps (end state is path-independent); red: penalty kappa (a model "
+             "change, error = distance from the preset-kappa reference); *: -snes_max_it 10",
+             fontsize=7)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    fig.savefig(path, dpi=110)
+
+
+def phase_report(args, records):
+    data = collect(args)
+    text = ["# Benchmark tables (generated by benchmarks/run_benchmarks.py report)\n"]
+    if data.get("assembly"):
+        text.append("## Assembly (wall time)\n\n" + assembly_tables(data))
+    if data.get("instructions"):
+        text.append("## Assembly (instruction counts)\n\n" + instruction_tables(data))
+    for phase, title in (("e2e", "End-to-end isometric contraction 0..0.15 s"),
+                         ("solvers", "Linear solvers and MPI ranks")):
+        if data.get(phase):
+            rs = sorted(data[phase].values(), key=lambda r: (r["n"], r["model"], r["solver"],
+                                                               r["ranks"]))
+            text.append(f"## {title}\n\n" + run_table(rs))
+    extrapolations = extrapolate(data)
+    if extrapolations:
+        text.append("### Extrapolation to n = 4 (385,155 unknowns) from n = 1, 2 (LU, one "
+                    "rank)\n\n```\n" + json.dumps(extrapolations, indent=1) + "\n```")
+    analysis = None
+    if data.get("map"):
+        analysis = map_analysis(data, args.reference)
+        rows = []
+        for p in sorted(analysis["points"], key=lambda p: (p["case"], p["wall_time"])):
+            rows.append([p["case"], p["label"], p.get("unknowns"), fmt(p["value"], ".6g"),
+                         fmt(p["error"] * 100, ".3g"), fmt(p["wall_time"], ".1f"),
+                         fmt(p.get("cpu_time"), ".1f"), p.get("newton_iterations"),
+                         p.get("cutbacks"), fmt(p["loadavg"], ".2f")])
+        refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g})"
+                         for c, v in analysis["reference"].items())
+        text.append("## Speed-accuracy map (COMBI)\n\nReference: " + refs + "\n\n"
+                    + md_table(["case", "setting", "unknowns", "value", "error [%]",
+                                "wall [s]", "CPU [s]", "Newton its", "cutbacks",
+                                "load (1 min, at start)"], rows))
+        levels = []
+        for case in ("isometric", "free"):
+            pts = [p for p in analysis["points"] if p["case"] == case and not p["sets"]]
+            for level in (0.05, 0.01, 0.001):
+                ok = [p for p in pts if p["error"] <= level]
+                best = min(ok, key=lambda p: p["wall_time"]) if ok else None
+                ref_name = analysis["reference"].get(case, {}).get("name", "-")
+                levels.append([case, f"{level * 100:g} %",
+                               best["label"] if best else
+                               f"none but the reference ({ref_name}, own error unknown)",
+                               fmt(best["wall_time"], ".1f") if best else "-",
+                               fmt(best["error"] * 100, ".3g") if best else "-"])
+        analysis["levels"] = levels
+        text.append("### Cheapest setting per accuracy level (discretisation only, preset "
+                    "kappa)\n\n" + md_table(["case", "accuracy", "cheapest setting",
+                                              "wall [s]", "error [%]"], levels))
+        plot_map(analysis, os.path.join(ROOT, "docs", "images", "speed_accuracy.png"),
+                 list(data["map"].values()))
+    report = "\n\n".join(text) + "\n"
+    print(report)
+    with open(os.path.join(args.work, "tables.md"), "w") as f:
+        f.write(report)
+    results = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+               "git_commit": git_commit(), "machine": machine_info(), "loadavg_at_report": loadavg(),
+               "note": "2-core machine shared with other builds/tests: every timing carries the "
+                       "load average before/after it",
+               "assembly": data.get("assembly", {}),
+               "end_to_end": list(data.get("e2e", {}).values()),
+               "solvers": list(data.get("solvers", {}).values()),
+               "map_runs": list(data.get("map", {}).values()),
+               "speed_accuracy": analysis,
+               "instructions": data.get("instructions", {}),
+               "extrapolations": extrapolations,
+               "experiments": data.get("experiments", {})}
+    with open(args.results, "w") as f:
+        json.dump(results, f, indent=1)
+    print(f"wrote {args.results}")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("phases", nargs="*", default=[
+        "assembly", "instructions", "map-cheap", "map-n2-isometric", "e2e", "solvers-n1",
+        "map-q2", "solvers-n2", "map-n2-free", "map-late", "report"])
+    parser.add_argument("--build", default=os.path.join(ROOT, "build"))
+    parser.add_argument("--work", default="/tmp/muscle-bench")
+    parser.add_argument("--results", default=os.path.join(HERE, "results.json"))
+    parser.add_argument("--reuse", action="store_true")
+    parser.add_argument("--repetitions", type=int, default=7)
+    parser.add_argument("--assembly-n", type=int, default=1)
+    parser.add_argument("--assembly-elements", nargs="+", default=["Q1", "Q2", "P1", "P2"])
+    parser.add_argument("--instruction-elements", nargs="+", default=["Q1", "Q2"])
+    parser.add_argument("--e2e-models", nargs="+", default=["combi"])
+    parser.add_argument("--e2e-refinements", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--e2e-dt", type=float, default=0.05)
+    parser.add_argument("--deadline", default=None,
+                        help="UTC HH:MM: start no run after it and stop a running one there")
+    parser.add_argument("--solver-refinements", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--map-dt", type=float, default=0.05)
+    parser.add_argument("--map-timeout", type=float, default=1800)
+    parser.add_argument("--map-extra", type=json.loads, nargs="*", default=[],
+                        help='more map runs as JSON, e.g. \'{"cell": "hex", "degree": 2, '
+                             '"n": 2, "dt": 0.15}\'')
+    parser.add_argument("--reference", default=None,
+                        help="map reference as ELEMENT_nN (default: most unknowns)")
+    args = parser.parse_args()
+    if args.deadline:
+        now = datetime.datetime.now(datetime.timezone.utc)
+        hh, mm = (int(x) for x in args.deadline.split(":"))
+        args.deadline = now.replace(hour=hh, minute=mm, second=0, microsecond=0)
+    os.makedirs(os.path.join(args.work, "runs"), exist_ok=True)
+    records = Records(os.path.join(args.work, "records.json"))
+    records.data.setdefault("meta", {})["started"] = datetime.datetime.now(
+        datetime.timezone.utc).isoformat(timespec="seconds")
+    phases = {"assembly": phase_assembly, "e2e": phase_e2e, "solvers": phase_solvers,
+              "map": phase_map,
+              "solvers-n1": lambda a, r: phase_solvers(a, r, [1]),
+              "solvers-n2": lambda a, r: phase_solvers(a, r, [2]),
+              **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
+                 for g in ("cheap", "q2", "n2-isometric", "n2-free", "late")},
+              "instructions": phase_instructions, "report": phase_report}
+    for phase in args.phases:
+        print(f"== {phase}", flush=True)
+        phases[phase](args, records)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
