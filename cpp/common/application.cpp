@@ -115,19 +115,10 @@ std::vector<double> parse_range(const std::string& text, const std::string& what
     throw InputError(usage);
   auto number = [&](const std::string& s, const char* name)
   {
-    std::size_t used = 0;
-    double v = 0;
-    try
-    {
-      v = std::stod(s, &used);
-    }
-    catch (const std::exception&)
-    {
-      used = 0;
-    }
-    if (used == 0 or used != s.size() or !std::isfinite(v))
+    const auto v = parse_real(s);
+    if (!v)
       throw InputError(usage + " (" + name + " '" + s + "' is not a number)");
-    return v;
+    return *v;
   };
   const double a = number(parts[0], "START"), b = number(parts[1], "STOP");
   const double n = number(parts[2], "COUNT");

@@ -1,11 +1,30 @@
 #include "errors.h"
 
+#include <cmath>
+
 #include <algorithm>
 #include <cctype>
 #include <numeric>
 
 namespace muscle
 {
+
+std::optional<double> parse_real(const std::string& text, bool finite)
+{
+  std::size_t used = 0;
+  double value = 0;
+  try
+  {
+    value = std::stod(text, &used);
+  }
+  catch (const std::exception&)
+  {
+    return std::nullopt;
+  }
+  if (used == 0 or used != text.size() or std::isnan(value) or (finite and std::isinf(value)))
+    return std::nullopt;
+  return value;
+}
 
 std::size_t edit_distance(const std::string& a, const std::string& b)
 {

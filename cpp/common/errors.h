@@ -1,5 +1,6 @@
 #pragma once
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -31,6 +32,10 @@ enum ExitStatus : int
   exit_solve_error = 3,
   exit_internal_error = 4,
 };
+
+/// The whole of `text` read as a number (strtod syntax, nothing left over);
+/// nothing if it is not one, or if it is NaN or infinite and `finite` is asked.
+std::optional<double> parse_real(const std::string& text, bool finite = true);
 
 /// Levenshtein distance, for "did you mean" suggestions.
 std::size_t edit_distance(const std::string& a, const std::string& b);

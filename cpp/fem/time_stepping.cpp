@@ -30,6 +30,12 @@ std::string midpoint_text(const mesh::Mesh& mesh, std::int32_t cell)
 }
 } // namespace
 
+nlohmann::json StepFailure::to_json() const
+{
+  return {{"t_converged", t_converged}, {"t_attempted", t_attempted}, {"reason", reason},
+          {"where", where}, {"newton_iterations", newton_iterations}, {"cutbacks", cutbacks}};
+}
+
 StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted, int step,
                                          const NewtonReport& report) const
 {

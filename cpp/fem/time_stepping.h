@@ -3,6 +3,7 @@
 #include "nonlinear_solver.h"
 
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,6 +49,9 @@ struct StepFailure
   std::string advice;      ///< what to try
   int newton_iterations = 0; ///< spent on the failed output step, all attempts
   int cutbacks = 0;          ///< attempts that failed on it
+
+  /// The fields above for a run's summary.json.
+  nlohmann::json to_json() const;
 };
 
 /// Quasi-static time stepping: for each output time solve the equilibrium

@@ -119,20 +119,11 @@ std::vector<DataPoint> read_data_csv(const std::string& path)
     for (const std::string name : {"stretch", "stress"})
     {
       const std::string& text = f[column[name]];
-      std::size_t used = 0;
-      double value = 0;
-      try
-      {
-        value = std::stod(text, &used);
-      }
-      catch (const std::exception&)
-      {
-        used = 0;
-      }
-      if (used == 0 or used != text.size() or !std::isfinite(value))
+      const auto value = parse_real(text);
+      if (!value)
         throw InputError(where() + "column '" + name + "': '" + text
                          + "' is not a finite number");
-      (name == std::string("stretch") ? p.control : p.stress) = value;
+      (name == std::string("stretch") ? p.control : p.stress) = *value;
     }
     if (p.load_case != LoadCase::SAF and !(p.control > 0))
       throw InputError(where() + "column 'stretch': " + f[column["stretch"]]

@@ -215,20 +215,11 @@ void ParameterSet::set_assignment(const std::string& assignment)
     throw InputError("expected NAME=VALUE, got '" + assignment + "'");
   const std::string name = assignment.substr(0, eq);
   const std::string text = assignment.substr(eq + 1);
-  std::size_t used = 0;
-  double value = 0;
-  try
-  {
-    value = std::stod(text, &used);
-  }
-  catch (const std::exception&)
-  {
-    used = 0;
-  }
-  if (used == 0 or used != text.size() or !std::isfinite(value))
+  const auto value = parse_real(text);
+  if (!value)
     throw InputError("parameter " + name + ": '" + text
                      + "' is not a finite number");
-  set(name, value);
+  set(name, *value);
 }
 
 bool ParameterSet::explicitly_set(const std::string& name) const

@@ -25,14 +25,6 @@ std::vector<std::string> split(const std::string& line)
   return fields;
 }
 
-bool parse_number(const std::string& text, double& value)
-{
-  if (text.empty())
-    return false;
-  char* end = nullptr;
-  value = std::strtod(text.c_str(), &end);
-  return end == text.c_str() + text.size() and std::isfinite(value);
-}
 } // namespace
 
 PointData::PointData(const std::string& path, std::size_t columns)
@@ -61,9 +53,9 @@ PointData::PointData(const std::string& path, std::size_t columns)
       std::vector<double> times;
       for (const std::string& n : _names)
       {
-        double t;
-        if (parse_number(n, t))
+        if (const auto time = parse_real(n))
         {
+          const double t = *time;
           if (!times.empty() and !(t > times.back()))
             throw InputError(where() + "time columns must increase ('" + n + "')");
           times.push_back(t);
@@ -79,15 +71,15 @@ PointData::PointData(const std::string& path, std::size_t columns)
     std::array<double, 3> x;
     for (std::size_t k = 0; k < fields.size(); ++k)
     {
-      double v;
-      if (!parse_number(fields[k], v))
+      const auto value = parse_real(fields[k]);
+      if (!value)
         throw InputError(where() + "column " + std::to_string(k + 1) + " ('"
                          + (k < 3 ? std::string(1, "xyz"[k]) : _names[k - 3]) + "'): '"
                          + fields[k] + "' is not a finite number");
       if (k < 3)
-        x[k] = v;
+        x[k] = *value;
       else
-        _values.push_back(v);
+        _values.push_back(*value);
     }
     _points.push_back(x);
     _lines.push_back(number);

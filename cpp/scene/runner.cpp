@@ -804,11 +804,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
     if (!input_error.empty())
       summary["failure"] = {{"reason", input_error}};
     if (failure)
-      summary["failure"] = {{"t_converged", failure->t_converged},
-                            {"t_attempted", failure->t_attempted},
-                            {"reason", failure->reason}, {"where", failure->where},
-                            {"newton_iterations", failure->newton_iterations},
-                            {"cutbacks", failure->cutbacks}};
+      summary["failure"] = failure->to_json();
     std::ofstream(options.out + "/summary.json") << summary.dump(1) << "\n";
   }
   if (series.is_open())

@@ -176,21 +176,12 @@ public:
     if (!_node.IsScalar())
       fail("expected a number, found " + shown());
     const std::string& s = _node.Scalar();
-    std::size_t used = 0;
-    double v = std::numeric_limits<double>::quiet_NaN();
-    try
-    {
-      v = std::stod(s, &used);
-    }
-    catch (const std::exception&)
-    {
-      used = 0;
-    }
-    if (used == 0 or used != s.size())
+    if (!parse_real(s, false))
       fail("'" + s + "' is not a number");
-    if (!std::isfinite(v))
+    const auto v = parse_real(s);
+    if (!v)
       fail("'" + s + "' is not a finite number");
-    return v;
+    return *v;
   }
   double number(double fallback) const { return defined() ? number() : fallback; }
 

@@ -49,19 +49,11 @@ std::vector<std::string> split_list(const std::string& text)
 
 double parse_number(const std::string& text, const std::string& what)
 {
-  std::size_t used = 0;
-  double v = 0;
-  try
-  {
-    v = std::stod(text, &used);
-  }
-  catch (const std::exception&)
-  {
-    used = 0;
-  }
-  if (used == 0 or used != text.size() or std::isnan(v))
+  // bounds may be infinite
+  const auto v = parse_real(text, false);
+  if (!v)
     throw InputError(what + ": '" + text + "' is not a number");
-  return v;
+  return *v;
 }
 
 std::pair<std::string, std::string> split_assignment(const std::string& a,

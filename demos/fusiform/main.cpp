@@ -297,11 +297,7 @@ int main(int argc, char** argv)
           {"wall_time", seconds_since(start)},
           {"ranks", dolfinx::MPI::size(MPI_COMM_WORLD)}, {"completed", !failure}};
       if (failure)
-        summary["failure"] = {{"t_converged", failure->t_converged},
-                              {"t_attempted", failure->t_attempted},
-                              {"reason", failure->reason}, {"where", failure->where},
-                              {"newton_iterations", failure->newton_iterations},
-                              {"cutbacks", failure->cutbacks}};
+        summary["failure"] = failure->to_json();
       if (s.condition_number)
       {
         summary["condition_number"] = condition.condition;
