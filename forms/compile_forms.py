@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """Compile the muscle forms with FFCx: one C file per variant plus a C++ registry.
 
-    compile_forms.py --out DIR [--variant MODEL:CELL:DEGREE[:QDEG] ...]
+    compile_forms.py --out DIR [--variant MODEL:CELL:DEGREE[:QDEG[:VQDEG]] ...]
 
 Without --variant it builds every model on hexahedra and tetrahedra of degree 1 and 2
-at the default quadrature degree, and one material-point variant per model.  CMake
+at the default quadrature degree, the anti-locking Q1 of BLE (volumetric part on one
+point, VQDEG 1), and one material-point variant per model.  CMake
 runs this whenever a file under forms/ changes (the form-regeneration workflow).
 """
 
@@ -26,20 +27,27 @@ def default_variants():
     for model in variants.MODELS:
         for cell in variants.CELLS:
             for degree in (1, 2):
-                out.append((model, cell, degree, variants.DEFAULT_QUADRATURE[(cell, degree)]))
+                qdeg = variants.DEFAULT_QUADRATURE[(cell, degree)]
+                out.append((model, cell, degree, qdeg, qdeg))
+                vqdeg = variants.REDUCED_VOLUMETRIC.get((cell, degree))
+                if vqdeg is not None and model in variants.ANTI_LOCKING_MODELS:
+                    out.append((model, cell, degree, qdeg, vqdeg))
     return out
 
 
 def parse_variant(text):
     parts = text.split(":")
-    if len(parts) not in (3, 4):
-        raise SystemExit(f"--variant {text!r}: expected MODEL:CELL:DEGREE[:QDEG]")
+    if len(parts) not in (3, 4, 5):
+        raise SystemExit(f"--variant {text!r}: expected MODEL:CELL:DEGREE[:QDEG[:VQDEG]]")
     model, cell, degree = parts[0], parts[1], int(parts[2])
     if model not in variants.MODELS or cell not in variants.CELLS or degree not in (1, 2):
         raise SystemExit(f"--variant {text!r}: model in {variants.MODELS}, cell in "
                          f"{tuple(variants.CELLS)}, degree 1 or 2")
-    qdeg = int(parts[3]) if len(parts) == 4 else variants.DEFAULT_QUADRATURE[(cell, degree)]
-    return model, cell, degree, qdeg
+    qdeg = int(parts[3]) if len(parts) >= 4 else variants.DEFAULT_QUADRATURE[(cell, degree)]
+    vqdeg = int(parts[4]) if len(parts) == 5 else qdeg
+    if not 0 <= vqdeg <= qdeg:
+        raise SystemExit(f"--variant {text!r}: VQDEG {vqdeg} must be between 0 and QDEG {qdeg}")
+    return model, cell, degree, qdeg, vqdeg
 
 
 def write_if_changed(path, text):
@@ -72,11 +80,13 @@ def registry_source(fe_variants, models):
     lines += ["", "namespace muscle::forms", "{", "",
               "const std::vector<FeVariant>& fe_variants()", "{",
               "  static const std::vector<FeVariant> table = {"]
-    for (model, cell, degree, qdeg) in fe_variants:
-        n = variants.variant_name(model, cell, degree, qdeg)
+    for (model, cell, degree, qdeg, vqdeg) in fe_variants:
+        n = variants.variant_name(model, cell, degree, qdeg, vqdeg)
         stretch = f"expression_{n}_fibre_stretch" if model in TAYLOR_ORDER else "nullptr"
-        lines.append(f'      {{"{model}", "{variants.CELLS[cell]}", {degree}, {qdeg}, '
-                     f'form_{n}_residual, form_{n}_jacobian, form_{n}_volume, '
+        split = (f"form_{n}_residual_volumetric, form_{n}_jacobian_volumetric" if vqdeg != qdeg
+                 else "nullptr, nullptr")
+        lines.append(f'      {{"{model}", "{variants.CELLS[cell]}", {degree}, {qdeg}, {vqdeg}, '
+                     f'form_{n}_residual, form_{n}_jacobian, {split}, form_{n}_volume, '
                      f'functionspace_form_{n}_residual, {stretch}, expression_{n}_post}},')
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<MaterialPointVariant>& material_point_variants()", "{",
@@ -98,9 +108,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", required=True, help="output directory for the generated C code")
     parser.add_argument("--variant", action="append", default=[],
-                        help="MODEL:CELL:DEGREE[:QDEG], repeatable (default: the standard set)")
+                        help="MODEL:CELL:DEGREE[:QDEG[:VQDEG]], repeatable (default: the standard set)")
     parser.add_argument("--extra-variant", action="append", default=[],
-                        help="MODEL:CELL:DEGREE:QDEG added to the standard set")
+                        help="MODEL:CELL:DEGREE:QDEG[:VQDEG] added to the standard set")
     parser.add_argument("--list", action="store_true", help="print the generated file names and exit")
     args = parser.parse_args()
 

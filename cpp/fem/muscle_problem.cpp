@@ -32,20 +32,72 @@ std::int32_t num_local_cells(const mesh::Mesh& mesh, bool with_ghosts)
 using Kernel = std::function<void(double*, const double*, const double*, const double*,
                                   const int*, const std::uint8_t*)>;
 
-/// The same form with its one cell integral restricted to the cells tagged
-/// `value` (same kernel, coefficients and constants).
-std::shared_ptr<fem::Form<double>> restricted(const ufcx_form& form,
-                                              const fem::Form<double>& full,
-                                              const mesh::MeshTags<std::int32_t>& tags,
-                                              int value)
+/// Positions in a form's packed array of the entries named `wanted`, each
+/// name's entries [offsets[i], offsets[i + 1]) with i its place in `names`.
+std::vector<int> gather_index(const std::vector<std::string>& names,
+                              const std::vector<int>& offsets,
+                              const std::vector<std::string>& wanted)
+{
+  std::vector<int> index;
+  for (const std::string& name : wanted)
+  {
+    auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end())
+      throw std::logic_error("volumetric form uses " + name + ", the main form does not");
+    const auto i = std::distance(names.begin(), it);
+    for (int k = offsets[i]; k < offsets[i + 1]; ++k)
+      index.push_back(k);
+  }
+  return index;
+}
+
+/// The cell kernel of `form` (built as `full`).  With `volumetric` (anti-locking
+/// Q1) it also adds that form's element tensor, computed on its own quadrature
+/// rule from the entries of the packed coefficients and constants it uses.
+Kernel cell_kernel(const ufcx_form& form, const fem::Form<double>& full,
+                   const ufcx_form* volumetric)
 {
   if (form.num_integrals(cell) != 1)
     throw std::logic_error("expected one cell integral");
+  Kernel main = form.integrals(cell)[0]->tabulate_tensor_float64;
+  if (!volumetric)
+    return main;
+  if (volumetric->num_integrals(cell) != 1)
+    throw std::logic_error("expected one cell integral in the volumetric form");
+  Kernel vol = volumetric->integrals(cell)[0]->tabulate_tensor_float64;
+  std::vector<int> constant_offsets = {0};
+  for (const auto& c : full.constants())
+    constant_offsets.push_back(constant_offsets.back() + c->value.size());
+  const std::vector<int> w_index
+      = gather_index(fem::get_coefficient_names(form), full.coefficient_offsets(),
+                     fem::get_coefficient_names(*volumetric));
+  const std::vector<int> c_index
+      = gather_index(fem::get_constant_names(form), constant_offsets,
+                     fem::get_constant_names(*volumetric));
+  return [main, vol, w_index, c_index, wv = std::vector<double>(w_index.size()),
+          cv = std::vector<double>(c_index.size())](
+             double* A, const double* w, const double* c, const double* x, const int* e,
+             const std::uint8_t* perm) mutable
+  {
+    main(A, w, c, x, e, perm);
+    for (std::size_t i = 0; i < w_index.size(); ++i)
+      wv[i] = w[w_index[i]];
+    for (std::size_t i = 0; i < c_index.size(); ++i)
+      cv[i] = c[c_index[i]];
+    vol(A, wv.data(), cv.data(), x, e, perm); // FFCx kernels add into A
+  };
+}
+
+/// `full` with its cell kernel replaced by `kernel`, on the cells tagged `value`
+/// (all owned cells without tags).
+std::shared_ptr<fem::Form<double>> with_kernel(Kernel kernel, const fem::Form<double>& full,
+                                               const mesh::MeshTags<std::int32_t>* tags,
+                                               int value)
+{
   std::map<fem::IntegralType,
            std::pair<std::vector<std::pair<int, Kernel>>, const mesh::MeshTags<int>*>>
       integrals;
-  integrals[fem::IntegralType::cell]
-      = {{{value, form.integrals(cell)[0]->tabulate_tensor_float64}}, &tags};
+  integrals[fem::IntegralType::cell] = {{{tags ? value : -1, kernel}}, tags};
   return std::make_shared<fem::Form<double>>(full.function_spaces(), integrals,
                                              full.coefficients(), full.constants(), false,
                                              full.mesh());
@@ -64,7 +116,8 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
 {
   const std::string cell = mesh::to_string(mesh->topology().cell_type());
   _variant = &forms::find_fe_variant(_kernels, cell, discretisation.degree,
-                                     discretisation.quadrature_degree);
+                                     discretisation.quadrature_degree,
+                                     discretisation.volumetric_quadrature_degree);
   const forms::FeVariant& v = *_variant;
 
   _V = std::make_shared<fem::FunctionSpace>(
@@ -134,11 +187,19 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
       fem::create_form<double>(*v.jacobian, {_V, _V}, coefficients, constants, {}));
   _volume = std::make_shared<fem::Form<double>>(
       fem::create_form<double>(*v.volume, {}, coefficients, constants, {}, mesh));
+  _residual_kernel = cell_kernel(*v.residual, *_residual, v.residual_volumetric);
+  const Kernel jacobian_kernel = cell_kernel(*v.jacobian, *_jacobian, v.jacobian_volumetric);
+  if (v.residual_volumetric)
+  {
+    _residual = with_kernel(_residual_kernel, *_residual, nullptr, 0);
+    _jacobian = with_kernel(jacobian_kernel, *_jacobian, nullptr, 0);
+  }
   if (region)
   {
-    _residual = restricted(*v.residual, *_residual, *region->tags, region->value);
-    _jacobian = restricted(*v.jacobian, *_jacobian, *region->tags, region->value);
-    _volume = restricted(*v.volume, *_volume, *region->tags, region->value);
+    _residual = with_kernel(_residual_kernel, *_residual, region->tags.get(), region->value);
+    _jacobian = with_kernel(jacobian_kernel, *_jacobian, region->tags.get(), region->value);
+    _volume = with_kernel(cell_kernel(*v.volume, *_volume, nullptr), *_volume,
+                          region->tags.get(), region->value);
   }
   if (v.fibre_stretch)
   {
@@ -191,7 +252,7 @@ void MuscleProblem::set_fibre(const fem::Function<double>& fibre)
 std::shared_ptr<fem::Form<double>> MuscleProblem::residual_on_cells(
     std::shared_ptr<const mesh::MeshTags<std::int32_t>> cells, int value) const
 {
-  return restricted(*_variant->residual, *_residual, *cells, value);
+  return with_kernel(_residual_kernel, *_residual, cells.get(), value);
 }
 
 void MuscleProblem::set_time_factor(double factor)

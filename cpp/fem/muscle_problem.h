@@ -9,6 +9,7 @@
 #include <dolfinx/fem/Function.h>
 #include <dolfinx/fem/FunctionSpace.h>
 #include <dolfinx/mesh/Mesh.h>
+#include <functional>
 #include <map>
 #include <optional>
 #include <memory>
@@ -27,6 +28,9 @@ struct Discretisation
 {
   int degree = 1;             ///< Lagrange degree of the displacement
   int quadrature_degree = -1; ///< -1: the default for the element
+  /// rule of the stiff volumetric part; -1: quadrature_degree.  1 on Q1 is the
+  /// anti-locking choice (selective reduced integration).
+  int volumetric_quadrature_degree = -1;
 };
 
 /// Outcome of evaluating the quadrature-point activation kernels.
@@ -140,6 +144,10 @@ private:
   std::map<std::string, std::shared_ptr<dolfinx::fem::Function<double>>> _taylor;
   std::map<std::string, std::shared_ptr<dolfinx::fem::Constant<double>>> _constants;
   std::shared_ptr<dolfinx::fem::Form<double>> _residual, _jacobian, _volume;
+  /// the residual's cell kernel (with the volumetric part on its own rule)
+  std::function<void(double*, const double*, const double*, const double*, const int*,
+                     const std::uint8_t*)>
+      _residual_kernel;
   std::shared_ptr<dolfinx::fem::Expression<double>> _stretch_expression, _post_expression;
   std::vector<double> _quadrature_weights;
   std::vector<std::int32_t> _cells, _owned_cells;

@@ -23,31 +23,47 @@ int default_quadrature(const std::string& cell, int degree)
 
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
-                                 int quadrature_degree)
+                                 int quadrature_degree,
+                                 int volumetric_quadrature_degree)
 {
   if (quadrature_degree < 0)
     quadrature_degree = default_quadrature(cell, degree);
+  if (volumetric_quadrature_degree < 0)
+    volumetric_quadrature_degree = quadrature_degree;
+  auto describe = [](const FeVariant& v)
+  {
+    std::string s = std::string(v.cell) + " degree " + std::to_string(v.degree)
+                    + " quadrature " + std::to_string(v.quadrature_degree);
+    if (v.volumetric_quadrature_degree != v.quadrature_degree)
+      s += " (volumetric " + std::to_string(v.volumetric_quadrature_degree) + ")";
+    return s;
+  };
   std::vector<std::string> available;
   for (const FeVariant& v : fe_variants())
   {
     if (model == v.model and cell == v.cell and degree == v.degree
-        and quadrature_degree == v.quadrature_degree)
+        and quadrature_degree == v.quadrature_degree
+        and volumetric_quadrature_degree == v.volumetric_quadrature_degree)
     {
       return v;
     }
     if (model == v.model)
-    {
-      available.push_back(std::string(v.cell) + " degree "
-                          + std::to_string(v.degree) + " quadrature "
-                          + std::to_string(v.quadrature_degree));
-    }
+      available.push_back(describe(v));
   }
+  std::string wanted = "quadrature degree " + std::to_string(quadrature_degree);
+  if (volumetric_quadrature_degree != quadrature_degree)
+    wanted += " and volumetric quadrature degree "
+              + std::to_string(volumetric_quadrature_degree);
+  std::string why;
+  if (volumetric_quadrature_degree != quadrature_degree)
+    why = " The anti-locking element is compiled for BLE on hexahedra of degree 1 only: "
+          "WKM, GIANT and COMBI need their coupled penalty at every quadrature point "
+          "(on one point their volume modes within a cell are unstable; BENCHMARKS.md).";
   throw InputError("no compiled kernels for model " + model + " on " + cell
-                   + " degree " + std::to_string(degree) + " with quadrature degree "
-                   + std::to_string(quadrature_degree) + "; compiled: "
-                   + join(available, "; ")
-                   + ". Add it with cmake -DMUSCLE_EXTRA_VARIANTS="
-                     "MODEL:CELL:DEGREE:QDEG (cell hex or tet) and rebuild.");
+                   + " degree " + std::to_string(degree) + " with " + wanted
+                   + "; compiled: " + join(available, "; ") + "." + why
+                   + " Add a variant with cmake -DMUSCLE_EXTRA_VARIANTS="
+                     "MODEL:CELL:DEGREE:QDEG[:VQDEG] (cell hex or tet) and rebuild.");
 }
 
 const MaterialPointVariant& find_material_point_variant(const std::string& model)

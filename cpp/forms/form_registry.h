@@ -15,8 +15,15 @@ struct FeVariant
   const char* cell;   ///< hexahedron or tetrahedron
   int degree;         ///< Lagrange degree of the displacement
   int quadrature_degree;
+  /// rule of the stiff volumetric part; < quadrature_degree: anti-locking
+  /// (selective reduced integration)
+  int volumetric_quadrature_degree;
   ufcx_form* residual;
   ufcx_form* jacobian;
+  /// the stiff volumetric part on its own rule (anti-locking), else null: added
+  /// to residual/jacobian cell by cell (FFCx 0.5 cannot mix rules in one integral)
+  ufcx_form* residual_volumetric;
+  ufcx_form* jacobian_volumetric;
   ufcx_form* volume; ///< functional: current volume
   ufcx_function_space* (*function_space)(const char*); ///< spaces by coefficient name
   ufcx_expression* fibre_stretch; ///< at quadrature points (kernel input), or null
@@ -50,10 +57,12 @@ const std::vector<FibreVariant>& fibre_variants();
 const std::vector<MaterialPointVariant>& material_point_variants();
 
 /// Look up a compiled variant; InputError listing what is available otherwise.
-/// quadrature_degree < 0 selects the default for the element.
+/// quadrature_degree < 0 selects the default for the element,
+/// volumetric_quadrature_degree < 0 the same rule as the rest of the energy.
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
-                                 int quadrature_degree = -1);
+                                 int quadrature_degree = -1,
+                                 int volumetric_quadrature_degree = -1);
 const MaterialPointVariant& find_material_point_variant(const std::string& model);
 
 } // namespace muscle::forms

@@ -318,7 +318,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
     try
     {
       problems.push_back(std::make_unique<MuscleProblem>(
-          mesh, part.parameters, Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree},
+          mesh, part.parameters, Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree,
+                                         scene.mesh.volumetric_quadrature_degree},
           !part.active, region, p > 0 ? problems[0]->u() : nullptr));
     }
     catch (const InputError& e)
@@ -528,7 +529,9 @@ void run_scene(const Scene& scene, const RunOptions& options)
     problem.set_time_factor(part.active ? 1.0 : 0.0);
     assembly["scene"] = time_assembly(problem, options.measure_assembly);
     MuscleProblem plain(mesh, part.parameters,
-                        {scene.mesh.degree, scene.mesh.quadrature_degree}, true);
+                        {scene.mesh.degree, scene.mesh.quadrature_degree,
+                         scene.mesh.volumetric_quadrature_degree},
+                        true);
     assembly["plain_passive"] = time_assembly(plain, options.measure_assembly);
     problem.set_time_factor(0);
     if (is_root())

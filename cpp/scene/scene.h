@@ -132,6 +132,7 @@ struct MeshSpec
   std::string cell = "hex";
   int degree = 1;
   int quadrature_degree = -1;
+  int volumetric_quadrature_degree = -1; ///< 1 on Q1: anti-locking
   SceneLocation where;
 };
 

@@ -612,9 +612,11 @@ Scene parse_scene(const std::string& text, const std::string& name,
   const Entry el = top["element"];
   if (el.defined())
   {
-    el.require_map({"degree", "quadrature_degree"});
+    el.require_map({"degree", "quadrature_degree", "volumetric_quadrature_degree"});
     scene.mesh.degree = el["degree"].integer(1, 1, 2);
     scene.mesh.quadrature_degree = el["quadrature_degree"].integer(-1, 1, 12);
+    scene.mesh.volumetric_quadrature_degree
+        = el["volumetric_quadrature_degree"].integer(-1, 0, 12);
   }
 
   // parts
@@ -629,6 +631,14 @@ Scene parse_scene(const std::string& text, const std::string& name,
       parts.at(i).fail("with several parts, each names its volume groups ('volumes: [...]')");
     if (!part_names.insert(scene.parts.back().name).second)
       parts.at(i)["name"].fail("two parts named '" + scene.parts.back().name + "'");
+    const int vq = scene.mesh.volumetric_quadrature_degree;
+    if (vq >= 0 and scene.parts.back().parameters.model() != Model::ble)
+      el["volumetric_quadrature_degree"].fail(
+          "the anti-locking element (a volumetric quadrature degree of its own) is "
+          "compiled for BLE only, part '" + scene.parts.back().name + "' is "
+          + to_string(scene.parts.back().parameters.model())
+          + ": WKM, GIANT and COMBI need their coupled penalty at every point; use "
+            "degree 2 (docs/scenes.md)");
   }
 
   // boundary conditions

@@ -51,9 +51,10 @@ struct Settings
   std::string model = "combi", load = "isometric", cell = "hex", out;
   std::string mesh = std::string(MUSCLE_SOURCE_DIR) + "/meshes/fusiform.geo";
   int refinement = 1, degree = 1, output_every = 1;
+  Discretisation element;
   double dt = -1, t_end = 0.15;
   std::vector<std::string> assignments, mesh_numbers;
-  bool quiet = false, no_fields = false, condition_number = false;
+  bool quiet = false, no_fields = false, condition_number = false, anti_locking = false;
   NewtonOptions newton;
   int max_cutbacks = 8;
 };
@@ -73,6 +74,12 @@ Settings parse(std::vector<std::string> args)
                  "20n along (1, 2 or 4)")->capture_default_str();
   app.add_option("--cell", s.cell, "hex or tet")->capture_default_str();
   app.add_option("--degree", s.degree, "displacement degree 1 or 2")->capture_default_str();
+  app.add_option("--quadrature-degree", s.element.quadrature_degree,
+                 "quadrature degree (default 2 for degree 1, 4 for degree 2; others need "
+                 "MUSCLE_EXTRA_VARIANTS)");
+  app.add_flag("--anti-locking", s.anti_locking,
+               "BLE on Q1 hexahedra: stiff volumetric part on one point per cell "
+               "(selective reduced integration)");
   app.add_option("--dt", s.dt, "time step [s] (default 0.001 for WKM/GIANT, which resolves "
                  "the 4 ms twitch train, 0.005 for BLE/COMBI)");
   app.add_option("--t-end", s.t_end, "end time [s]")->capture_default_str();
@@ -111,6 +118,15 @@ Settings parse(std::vector<std::string> args)
     throw InputError("--cell '" + s.cell + "': allowed: hex, tet");
   if (s.degree != 1 and s.degree != 2)
     throw InputError("--degree " + std::to_string(s.degree) + ": allowed 1 or 2");
+  s.element.degree = s.degree;
+  if (s.anti_locking)
+  {
+    if (s.cell != "hex" or s.degree != 1 or s.model != "ble")
+      throw InputError("--anti-locking: only for --model ble --cell hex --degree 1 (WKM, "
+                       "GIANT and COMBI are unstable with a one-point penalty; Q2 does not "
+                       "lock; BENCHMARKS.md)");
+    s.element.volumetric_quadrature_degree = 1;
+  }
   if (s.dt == -1)
     s.dt = uses_twitch_train(parse_model(s.model)) ? 0.001 : 0.005;
   if (!(s.dt > 0) or !(s.t_end > 0))
@@ -158,7 +174,7 @@ int main(int argc, char** argv)
               midsection = gm.surface("midsection");
 
     // The material and its fibres
-    MuscleProblem problem(mesh, parameters, {s.degree, -1});
+    MuscleProblem problem(mesh, parameters, s.element);
     const LaplaceFibres fibres = laplace_fibres(mesh, *gm.facet_tags, origin, insertion,
                                                 problem.fibre()->function_space());
     problem.set_fibre(*fibres.fibre);
@@ -288,7 +304,9 @@ int main(int argc, char** argv)
     {
       nlohmann::json summary = {
           {"model", s.model}, {"case", s.load}, {"refinement", s.refinement},
-          {"cell", s.cell}, {"degree", s.degree}, {"dt", s.dt}, {"t_end", s.t_end},
+          {"cell", s.cell}, {"degree", s.degree},
+          {"quadrature_degree", problem.quadrature_degree()}, {"anti_locking", s.anti_locking},
+          {"dt", s.dt}, {"t_end", s.t_end},
           {"cells", gm.num_cells}, {"nodes", gm.num_nodes},
           {"unknowns", V->dofmap()->index_map->size_global() * 3},
           {"steps", step}, {"newton_iterations", total_newton},

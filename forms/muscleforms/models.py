@@ -33,6 +33,24 @@ def volumetric_penalty(J, gamma, kappa):
     return gamma / (4 * kappa) * (exp(-2 * kappa * ln(J)) - 1)
 
 
+def volumetric_stiff_part(model, J, p):
+    """The part of Psi that enforces near-incompressibility, with zero stress at J = 1.
+
+    Q1 elements lock under it; integrating it with a one-point rule (selective reduced
+    integration, the B-bar / mean-dilatation family of anti-locking choices) removes
+    the locking.  The coupled penalty's reference stress -gamma/2 balances the Ehret
+    terms and must stay fully integrated, otherwise distorted elements carry a
+    spurious self-stress; so only the remainder with R(1) = R'(1) = 0 is returned.
+    """
+    if model in ("ble", "ble_passive"):
+        return p["kappa"] / 2 * ln(J)**2
+    if model in ("wkm", "giant", "combi", "ehret_passive"):
+        return volumetric_penalty(J, p["gamma"], p["kappa"]) + p["gamma"] / 2 * (J - 1)
+    if model == "neohooke":
+        return p["lmbda"] / 2 * ln(J)**2
+    raise ValueError(f"unknown model {model}")
+
+
 def ble_energy(kin, p, level):
     """Blemker active stress + Neo-Hooke + kappa/2 ln(J)^2 (paper eq. Psi_Ble, our variant)."""
     J = kin.J

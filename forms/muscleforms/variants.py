@@ -26,8 +26,19 @@ DEFAULT_QUADRATURE = {("hex", 1): 2, ("hex", 2): 4, ("tet", 1): 2, ("tet", 2): 4
 ACTIVE_MODELS = ("ble", "wkm", "giant", "combi")
 
 
-def variant_name(model, cell, degree, qdeg):
-    return f"{model}_{cell}{degree}_q{qdeg}"
+# Q1 with the stiff volumetric part on one point per cell (selective reduced integration),
+# compiled for BLE only: its remaining energy is isochoric, so nothing else needs the
+# penalty.  The coupled Ehret energies of WKM, GIANT and COMBI soften in volume without
+# their penalty; with it on one point their within-cell volume modes are unstable
+# (Newton stagnates at t = 0.8 ms on the block, 0.6 ms on the fusiform; BENCHMARKS.md).
+REDUCED_VOLUMETRIC = {("hex", 1): 1}
+ANTI_LOCKING_MODELS = ("ble", "ble_passive")
+
+
+def variant_name(model, cell, degree, qdeg, vqdeg=None):
+    """vqdeg: quadrature degree of the stiff volumetric part when it differs from qdeg."""
+    name = f"{model}_{cell}{degree}_q{qdeg}"
+    return name if vqdeg in (None, qdeg) else f"{name}_v{vqdeg}"
 
 
 class _Names:
@@ -87,8 +98,12 @@ def _stress_and_energy(model, H_of, fibre, p, level, taylor):
     return diff(psi, H), psi, kin, H, H_omega
 
 
-def build_fe_variant(model, cell, degree, qdeg):
-    """Residual, Jacobian, volume functional and quadrature-point expressions."""
+def build_fe_variant(model, cell, degree, qdeg, vqdeg=None):
+    """Residual, Jacobian, volume functional and quadrature-point expressions.
+
+    vqdeg (if not None or qdeg): the stiff volumetric part of the energy is integrated
+    with this lower degree and the rest with qdeg (anti-locking Q1).
+    """
     ucell = getattr(ufl, CELLS[cell])
     names = _Names()
     V = VectorElement("Lagrange", ucell, degree)
@@ -111,7 +126,17 @@ def build_fe_variant(model, cell, degree, qdeg):
 
     P, psi, kin, _, _ = _stress_and_energy(model, lambda: variable(grad(u)), fibre, p, level, taylor)
     measure = dx(metadata={"quadrature_degree": qdeg})
-    residual = inner(P, grad(v)) * measure
+    if vqdeg in (None, qdeg):
+        residual = inner(P, grad(v)) * measure
+    else:
+        # The volumetric part is a form of its own (C++ runs both kernels per cell):
+        # FFCx 0.5 mixes up two rules of one integral -- the full rule's loop reads the
+        # one-point rule's grad(u) and geometry (residual off by 17 % on a 2x2x2 cube).
+        P_vol = diff(models.volumetric_stiff_part(model, kin.J, p), kin.H)
+        residual = inner(P - P_vol, grad(v)) * measure
+        residual_vol = inner(P_vol, grad(v)) * dx(metadata={"quadrature_degree": vqdeg})
+        names.export(residual_vol, "residual_volumetric")
+        names.export(derivative(residual_vol, u, du), "jacobian_volumetric")
     names.export(residual, "residual")
     names.export(derivative(residual, u, du), "jacobian")
     names.export(kin.J * measure, "volume")
