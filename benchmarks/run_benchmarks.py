@@ -13,7 +13,11 @@ Phases (default: all, in this order; each is cheap to rerun with --reuse):
   map       speed-accuracy map (COMBI): element (Q1, Q2, P1, P2), refinement, time
             step, penalty kappa; isometric F33 and free epsilon at t = 0.15 s; in groups
             map-cheap, map-q2 (reference), map-n2-isometric, map-n2-free, map-late
-            (P2 n = 1, P1 n = 2, --map-extra)
+            (P2 n = 1, P1 n = 2, --map-extra); map-quadrature (Q1 degree 4, Q2 degrees
+            2 and 6: run with --build of a build tree configured with
+            -DMUSCLE_EXTRA_VARIANTS="combi:hex:1:4;combi:hex:2:2;combi:hex:2:6")
+  knobs     BLE's anti-locking Q1 against plain Q1 and Q2; the activation root
+            finder's tolerance (GIANT, WKM)
   solvers-n1, solvers-n2   the solver comparison at one refinement
   report    tables (stdout + Markdown), docs/images/speed_accuracy.png and
             benchmarks/results.json from everything measured so far
@@ -112,7 +116,7 @@ def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc
 
 
 def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, dt=0.05,
-             solver="lu", np=1, sets=(), petsc=(), timeout=None):
+             solver="lu", np=1, sets=(), petsc=(), timeout=None, group=None):
     """One fusiform run (cached with --reuse); returns a flat record."""
     name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc)
     out = os.path.join(args.work, "runs", name)
@@ -170,7 +174,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
     after = loadavg()
     record = {"name": name, "model": model, "case": case, "cell": cell, "degree": degree,
               "element": element_name(cell, degree), "n": n, "dt": dt, "solver": solver,
-              "ranks": np, "sets": list(sets), "petsc": list(petsc),
+              "ranks": np, "sets": list(sets), "petsc": list(petsc), "group": group,
               "command": " ".join(shlex.quote(c) for c in command[5:]),
               "elapsed": elapsed, "loadavg_before": before, "loadavg_after": after,
               "binary_mtime": binary_mtime(args),
@@ -364,7 +368,8 @@ def collect(args):
     """Everything measured so far, from the files on disk (robust against several
     drivers writing records.json at once)."""
     import glob
-    data = {"assembly": {}, "instructions": {}, "e2e": {}, "solvers": {}, "map": {}}
+    data = {"assembly": {}, "instructions": {}, "e2e": {}, "solvers": {}, "map": {},
+            "knobs": {}}
     for element in ("Q1", "Q2", "P1", "P2"):
         path = os.path.join(args.work, f"assembly_{element}_n{args.assembly_n}.json")
         if os.path.exists(path):
@@ -384,6 +389,9 @@ def collect(args):
         with open(path) as f:
             r = json.load(f)
         r.setdefault("petsc", [])
+        if r.get("group") == "knobs":
+            data["knobs"][r["name"]] = r
+            continue
         plain = not r["sets"] and not r["petsc"]
         if r["model"] == "combi" and r["case"] == "isometric" and r["element"] == "Q1" \
                 and r["dt"] == args.e2e_dt and not r["petsc"] \
@@ -463,6 +471,11 @@ def map_runs(args, group):
         return [dict(case="isometric", cell="hex", degree=1, n=2, dt=dt)]
     if group == "n2-free":  # as q2: failing attempts stopped after 10 iterations
         return [dict(case="free", cell="hex", degree=1, n=2, dt=dt, petsc=("-snes_max_it 10",))]
+    if group == "quadrature":  # needs a build with MUSCLE_EXTRA_VARIANTS (BENCHMARKS.md)
+        q = lambda d: (f"--quadrature-degree {d}",)
+        return (both(cell="hex", degree=1, n=1, dt=dt, petsc=q(4))
+                + both(cell="hex", degree=2, n=1, dt=dt, petsc=q(2) + ("-snes_max_it 10",))
+                + both(cell="hex", degree=2, n=1, dt=dt, petsc=q(6) + ("-snes_max_it 10",)))
     if group == "late":
         runs = both(cell="tet", degree=2, n=1, dt=dt) + both(cell="tet", degree=1, n=2, dt=dt)
         return runs + [dict(case=case, **extra) for extra in args.map_extra
@@ -475,6 +488,57 @@ def phase_map(args, records, groups=("cheap", "q2", "n2-isometric", "n2-free", "
         for kw in map_runs(args, group):
             r = fusiform(args, model="combi", timeout=args.map_timeout, **kw)
             records.put("map", r["name"], r)
+
+
+def knob_runs(args):
+    """Settings outside the COMBI map: BLE's anti-locking Q1 against plain Q1 and Q2, and
+    the activation root finder's tolerance (GIANT, WKM; 0.01 s steps, end values do not
+    depend on the step)."""
+    runs = []
+    for case in ("isometric", "free"):
+        runs += [dict(model="ble", case=case, degree=1),
+                 dict(model="ble", case=case, degree=1, petsc=("--anti-locking",)),
+                 dict(model="ble", case=case, degree=2, petsc=("-snes_max_it 10",))]
+    for model, tolerances in (("giant", (1e-15, 1e-9, 1e-6, 1e-4, 1e-2)),
+                              ("wkm", (1e-15, 1e-6, 1e-2))):
+        runs += [dict(model=model, case="isometric", dt=0.01,
+                      petsc=(f"--root-tolerance {t:g}",)) for t in tolerances]
+    return runs
+
+
+def phase_knobs(args, records):
+    for kw in knob_runs(args):
+        kw.setdefault("dt", args.map_dt)
+        r = fusiform(args, timeout=args.map_timeout, group="knobs", **kw)
+        records.put("knobs", r["name"], r)
+
+
+def knob_table(knobs):
+    """Each run against its model's reference in the same case: Q2 for the element
+    choice, the round-off tolerance for the root finder."""
+    rows = []
+    runs = [r for r in knobs.values() if r.get("completed")]
+    for r in sorted(runs, key=lambda r: (r["model"], r["case"], r["name"])):
+        tolerance = any("--root-tolerance" in a for a in r["petsc"])
+        if tolerance:
+            ref = [x for x in runs if x["model"] == r["model"] and x["case"] == r["case"]
+                   and "--root-tolerance 1e-15" in x["petsc"]]
+        else:
+            ref = [x for x in runs if x["model"] == r["model"] and x["case"] == r["case"]
+                   and x["degree"] == 2]
+        quantity = "F33" if r["case"] == "isometric" else "epsilon"
+        error = None
+        if ref and ref[0]["name"] != r["name"]:
+            a, b = r[quantity], ref[0][quantity]
+            error = abs(a - b) / (abs(b) if quantity == "F33" else abs(1 - b))
+        setting = f"{r['element']} " + " ".join(r["petsc"])
+        rows.append([r["model"], r["case"], setting.strip(), r.get("unknowns"),
+                     fmt(r[quantity], ".8g"), fmt(error * 100 if error is not None else None, ".3g"),
+                     fmt(r["wall_time"], ".1f"), fmt(r.get("cpu_time"), ".1f"),
+                     r.get("newton_iterations"), fmt(r["loadavg_before"][0], ".2f")])
+    return md_table(["model", "case", "setting", "unknowns", "F33 / epsilon",
+                     "error [%] (vs Q2 / vs tolerance 1e-15)", "wall [s]", "CPU [s]",
+                     "Newton its", "load"], rows)
 
 
 # ---------------------------------------------------------------------------
@@ -584,7 +648,8 @@ def map_analysis(records, reference_choice):
     out = {"points": [], "reference": {}}
     for case, quantity in (("isometric", "F33"), ("free", "epsilon")):
         # reference: the finest discretisation at preset kappa (most unknowns; Q2 first)
-        candidates = [r for r in runs if r["case"] == case and not r["sets"]]
+        candidates = [r for r in runs if r["case"] == case and not r["sets"]
+                      and not any("--quadrature-degree" in a for a in r.get("petsc", []))]
         if reference_choice:
             candidates = [r for r in candidates
                           if f"{r['element']}_n{r['n']}" == reference_choice] or candidates
@@ -653,7 +718,9 @@ def plot_map(analysis, path, runs):
             elif p["dt"] != 0.05:
                 text, offset = f"dt={p['dt']:g}", (2, 5)
             else:
-                text = f"{p['element']} n={p['n']}" + ("*" if p.get("petsc") else "")
+                quadrature = [a.split()[-1] for a in p.get("petsc", []) if "--quadrature-degree" in a]
+                text = (f"{p['element']} n={p['n']}" + "".join(f" q{q}" for q in quadrature)
+                        + ("*" if any("-snes_max_it" in a for a in p.get("petsc", [])) else ""))
                 offset = (4, 2)
             ax.annotate(text, (p["wall_time"], err), fontsize=6.5, xytext=offset,
                         textcoords="offset points", color=colour)
@@ -665,13 +732,13 @@ def plot_map(analysis, path, runs):
             ax.text(ax.get_xlim()[0] if False else 0.99, level, name, fontsize=7,
                     transform=ax.get_yaxis_transform(), ha="right", va="bottom")
         ax.set_title(f"COMBI {title} at t = 0.15 s\nerror against {ref['name']}", fontsize=9)
-        ax.set_xlabel("wall time [s] (2-core machine shared with builds: load 3-6)")
+        ax.set_xlabel("wall time [s] (2-core machine, load 1-6: see results.json)")
         ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=7, loc="center right")
     fig.text(0.01, 0.01, "squares Q1, diamonds Q2, triangles P1/P2; blue: dt = 0.05 s; grey: "
              "other time steps (end state is path-independent); red: penalty kappa (a model "
-             "change, error = distance from the preset-kappa reference); *: -snes_max_it 10",
+             "change, error = distance from the preset-kappa reference); qN: quadrature degree N; *: -snes_max_it 10",
              fontsize=7)
     fig.tight_layout(rect=(0, 0.03, 1, 1))
     os.makedirs(os.path.dirname(path), exist_ok=True)
@@ -728,6 +795,9 @@ def phase_report(args, records):
                                               "wall [s]", "error [%]"], levels))
         plot_map(analysis, os.path.join(ROOT, "docs", "images", "speed_accuracy.png"),
                  list(data["map"].values()))
+    if data.get("knobs"):
+        text.append("## Anti-locking Q1 (BLE) and the activation root tolerance\n\n"
+                    + knob_table(data["knobs"]))
     report = "\n\n".join(text) + "\n"
     print(report)
     with open(os.path.join(args.work, "tables.md"), "w") as f:
@@ -743,7 +813,12 @@ def phase_report(args, records):
                "speed_accuracy": analysis,
                "instructions": data.get("instructions", {}),
                "extrapolations": extrapolations,
+               "knob_runs": list(data.get("knobs", {}).values()),
                "experiments": data.get("experiments", {})}
+    if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
+        with open(args.results) as f:
+            for key, value in json.load(f).items():
+                results.setdefault(key, value)
     with open(args.results, "w") as f:
         json.dump(results, f, indent=1)
     print(f"wrote {args.results}")
@@ -790,7 +865,8 @@ def main():
               "solvers-n1": lambda a, r: phase_solvers(a, r, [1]),
               "solvers-n2": lambda a, r: phase_solvers(a, r, [2]),
               **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
-                 for g in ("cheap", "q2", "n2-isometric", "n2-free", "late")},
+                 for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
+              "knobs": phase_knobs,
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

@@ -140,6 +140,32 @@ TEST(GiantKernel, SolvesTheImplicitEquation)
     }
 }
 
+// The root tolerance is a knob: a loose one still returns an admissible root,
+// and the error in omega_a stays within what the tolerance allows (the step
+// bound times a few, Newton being quadratic at the end) -- measured against the
+// round-off root, not against itself.
+TEST(GiantKernel, LooseRootToleranceStaysWithinIt)
+{
+  const EhretParameters p = fitted();
+  for (double tolerance : {1e-10, 1e-6, 1e-3})
+  {
+    int saved = 0;
+    for (double l = 0.7; l <= 1.6; l += 0.1)
+    {
+      const OmegaTaylor exact = giant_omega(l, 64.68, p);
+      const OmegaTaylor loose = giant_omega(l, 64.68, p, tolerance);
+      ASSERT_TRUE(loose.ok);
+      EXPECT_LE(loose.iterations, exact.iterations);
+      saved += exact.iterations - loose.iterations;
+      // omega = d/(l + d): |d omega| <= |d d| / l
+      EXPECT_NEAR(loose.value, exact.value, 10 * tolerance * std::max(1.0, 1 / l))
+          << "l=" << l << " tolerance=" << tolerance;
+    }
+    if (tolerance == 1e-3)
+      EXPECT_GT(saved, 0) << "a loose tolerance must stop the root finder earlier";
+  }
+}
+
 TEST(GiantKernel, DerivativesFromImplicitDifferentiation)
 {
   const EhretParameters p = fitted();

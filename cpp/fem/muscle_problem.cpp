@@ -297,7 +297,7 @@ KernelStatus MuscleProblem::update_activation()
     for (std::size_t q = 0; q < nq; ++q)
     {
       const double l = stretch(i, q);
-      const OmegaTaylor w = activation_kernel(model, l, level, p);
+      const OmegaTaylor w = activation_kernel(model, l, level, p, _root_tolerance);
       if (!w.ok)
       {
         if (status.failures++ == 0)

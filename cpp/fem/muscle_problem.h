@@ -1,5 +1,6 @@
 #pragma once
 
+#include "../material/activation_kernels.h"
 #include "../material/parameters.h"
 
 #include <array>
@@ -94,6 +95,8 @@ public:
   /// a no-op for the other models.
   KernelStatus update_activation();
   bool has_activation_kernel() const { return !_taylor.empty(); }
+  /// Step tolerance of the activation root finder (relative; default round-off).
+  void set_root_tolerance(double tolerance) { _root_tolerance = tolerance; }
 
   std::shared_ptr<const dolfinx::fem::Form<double>> residual() const { return _residual; }
   std::shared_ptr<const dolfinx::fem::Form<double>> jacobian() const { return _jacobian; }
@@ -138,6 +141,7 @@ private:
   std::string _kernels;
   const forms::FeVariant* _variant;
   double _time_factor = 0;
+  double _root_tolerance = default_root_tolerance;
 
   std::shared_ptr<dolfinx::fem::FunctionSpace> _V;
   std::shared_ptr<dolfinx::fem::Function<double>> _u, _fibre, _scale;

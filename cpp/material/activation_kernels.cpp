@@ -10,7 +10,8 @@
 namespace muscle
 {
 
-OmegaTaylor wkm_omega(double l, double level, const EhretParameters& p)
+OmegaTaylor wkm_omega(double l, double level, const EhretParameters& p,
+                      double root_tolerance)
 {
   OmegaTaylor r;
   const ForceStretch fs = force_stretch(l, p.lambda_min, p.lambda_opt);
@@ -54,7 +55,7 @@ OmegaTaylor wkm_omega(double l, double level, const EhretParameters& p)
     if (std::isfinite(chi))
       z0 = boost::math::lambert_w0(chi) - y;
   }
-  const RootResult root = bracketed_newton(F, lo, hi, z0);
+  const RootResult root = bracketed_newton(F, lo, hi, z0, root_tolerance);
   const double z = root.x;
   r.iterations = root.iterations;
 
@@ -95,7 +96,8 @@ std::pair<double, double> uniaxial_energy_increment(double l, double d,
 }
 } // namespace
 
-OmegaTaylor giant_omega(double l, double level, const EhretParameters& p)
+OmegaTaylor giant_omega(double l, double level, const EhretParameters& p,
+                        double root_tolerance)
 {
   OmegaTaylor r;
   const ForceStretch fs = force_stretch(l, p.lambda_min, p.lambda_opt);
@@ -123,7 +125,7 @@ OmegaTaylor giant_omega(double l, double level, const EhretParameters& p)
          + (-dg0 + std::sqrt(std::max(0.0, dg0 * dg0 - 2 * curvature * g0)))
                / curvature;
 
-  const RootResult root = bracketed_newton(g, lo, hi, d0);
+  const RootResult root = bracketed_newton(g, lo, hi, d0, root_tolerance);
   r.iterations = root.iterations;
   const double d = root.x;
   const double m = l + d;

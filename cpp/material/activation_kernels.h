@@ -5,6 +5,9 @@
 namespace muscle
 {
 
+/// Step tolerance of the activation root finders: round-off.
+constexpr double default_root_tolerance = 1e-15;
+
 /// omega_a and its derivatives with respect to the fibre stretch, at one point.
 struct OmegaTaylor
 {
@@ -28,7 +31,11 @@ struct OmegaTaylor
 /// omega_a = 0 when P_act = 0, as in the paper: for very short fibres
 /// (y < -1) the principal branch would otherwise return a non-zero root.
 /// d1 comes from the implicit-function theorem; WKM's tangent needs no d2.
-OmegaTaylor wkm_omega(double stretch, double level, const EhretParameters& p);
+///
+/// `root_tolerance`: the root finder stops when its step is below this times
+/// max(1, |z|) (default: round-off; a looser one is a speed knob, BENCHMARKS.md).
+OmegaTaylor wkm_omega(double stretch, double level, const EhretParameters& p,
+                      double root_tolerance = default_root_tolerance);
 
 /// GIANT (paper eq. waimplicit, uniaxial form in ERRATA.md): with
 /// m = l/(1 - omega_a) the elastic fibre stretch,
@@ -40,6 +47,7 @@ OmegaTaylor wkm_omega(double stretch, double level, const EhretParameters& p);
 /// (F_a = I), so for fibres already shorter than 1 omega_a jumps at activation
 /// onset from 0 to the stretched-elastic root; this choice is deliberate
 /// (ERRATA.md) and tested.  d1 and d2 come from implicit differentiation.
-OmegaTaylor giant_omega(double stretch, double level, const EhretParameters& p);
+OmegaTaylor giant_omega(double stretch, double level, const EhretParameters& p,
+                        double root_tolerance = default_root_tolerance);
 
 } // namespace muscle

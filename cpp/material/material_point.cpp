@@ -21,14 +21,14 @@ EhretParameters ehret_parameters(const ParameterSet& p)
 }
 
 OmegaTaylor activation_kernel(Model model, double stretch, double level,
-                              const EhretParameters& p)
+                              const EhretParameters& p, double root_tolerance)
 {
   switch (model)
   {
   case Model::wkm:
-    return wkm_omega(stretch, level, p);
+    return wkm_omega(stretch, level, p, root_tolerance);
   case Model::giant:
-    return giant_omega(stretch, level, p);
+    return giant_omega(stretch, level, p, root_tolerance);
   default:
     return {};
   }

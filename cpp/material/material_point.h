@@ -77,6 +77,7 @@ EhretParameters ehret_parameters(const ParameterSet& p);
 
 /// The quadrature-point kernel of a model: wkm_omega, giant_omega, or zero.
 OmegaTaylor activation_kernel(Model model, double stretch, double level,
-                              const EhretParameters& p);
+                              const EhretParameters& p,
+                              double root_tolerance = default_root_tolerance);
 
 } // namespace muscle

@@ -52,7 +52,7 @@ struct Settings
   std::string mesh = std::string(MUSCLE_SOURCE_DIR) + "/meshes/fusiform.geo";
   int refinement = 1, degree = 1, output_every = 1;
   Discretisation element;
-  double dt = -1, t_end = 0.15;
+  double dt = -1, t_end = 0.15, root_tolerance = 1e-15;
   std::vector<std::string> assignments, mesh_numbers;
   bool quiet = false, no_fields = false, condition_number = false, anti_locking = false;
   NewtonOptions newton;
@@ -80,6 +80,9 @@ Settings parse(std::vector<std::string> args)
   app.add_flag("--anti-locking", s.anti_locking,
                "BLE on Q1 hexahedra: stiff volumetric part on one point per cell "
                "(selective reduced integration)");
+  app.add_option("--root-tolerance", s.root_tolerance,
+                 "WKM/GIANT: relative step tolerance of the activation root finder (speed "
+                 "knob; default round-off)")->capture_default_str();
   app.add_option("--dt", s.dt, "time step [s] (default 0.001 for WKM/GIANT, which resolves "
                  "the 4 ms twitch train, 0.005 for BLE/COMBI)");
   app.add_option("--t-end", s.t_end, "end time [s]")->capture_default_str();
@@ -127,6 +130,9 @@ Settings parse(std::vector<std::string> args)
                        "lock; BENCHMARKS.md)");
     s.element.volumetric_quadrature_degree = 1;
   }
+  if (!(s.root_tolerance > 0 and s.root_tolerance < 1))
+    throw InputError("--root-tolerance " + std::to_string(s.root_tolerance)
+                     + ": allowed between 0 and 1 (exclusive)");
   if (s.dt == -1)
     s.dt = uses_twitch_train(parse_model(s.model)) ? 0.001 : 0.005;
   if (!(s.dt > 0) or !(s.t_end > 0))
@@ -175,6 +181,7 @@ int main(int argc, char** argv)
 
     // The material and its fibres
     MuscleProblem problem(mesh, parameters, s.element);
+    problem.set_root_tolerance(s.root_tolerance);
     const LaplaceFibres fibres = laplace_fibres(mesh, *gm.facet_tags, origin, insertion,
                                                 problem.fibre()->function_space());
     problem.set_fibre(*fibres.fibre);
@@ -306,6 +313,7 @@ int main(int argc, char** argv)
           {"model", s.model}, {"case", s.load}, {"refinement", s.refinement},
           {"cell", s.cell}, {"degree", s.degree},
           {"quadrature_degree", problem.quadrature_degree()}, {"anti_locking", s.anti_locking},
+          {"root_tolerance", s.root_tolerance},
           {"dt", s.dt}, {"t_end", s.t_end},
           {"cells", gm.num_cells}, {"nodes", gm.num_nodes},
           {"unknowns", V->dofmap()->index_map->size_global() * 3},

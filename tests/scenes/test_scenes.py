@@ -476,6 +476,13 @@ def anti_locking(build):
             check(r.returncode == 0, f"{name}: exit {r.returncode} {(r.stdout + r.stderr)[-300:]}")
             if r.returncode == 0:
                 shortening[name] = 1 - float(read_series(os.path.join(out, "series.csv"))[-1]["epsilon"])
+            if name == "Q1 anti-locking":  # the combined cell kernel on ghosted cells
+                r = run(build, [path, "--out", out + "_np2", "--quiet"], ranks=2, timeout=600)
+                check(r.returncode == 0, f"{name} on 2 ranks: exit {r.returncode}")
+                if r.returncode == 0 and name in shortening:
+                    two = 1 - float(read_series(os.path.join(out + "_np2", "series.csv"))[-1]["epsilon"])
+                    check(abs(two - shortening[name]) <= 1e-8 * shortening[name],
+                          f"{name}: 1 and 2 ranks agree ({shortening[name]!r} vs {two!r})")
     if len(shortening) < 3:
         return
     reference = shortening["Q2"]
