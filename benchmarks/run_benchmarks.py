@@ -133,7 +133,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
         time.sleep(5)
     if args.reuse and not os.path.exists(record_path) and os.path.exists(summary_path):
         adopted = adopt(name, out, dict(solver=solver, ranks=np, sets=list(sets),
-                                        petsc=list(petsc)))
+                                        petsc=list(petsc), group=group))
         if adopted:
             return adopted
     os.makedirs(out, exist_ok=True)

@@ -10,6 +10,7 @@
 #include <dolfinx/fem/assembler.h>
 #include <dolfinx/fem/utils.h>
 #include <dolfinx/mesh/cell_types.h>
+#include <set>
 #include <xtensor/xtensor.hpp>
 
 using namespace dolfinx;
@@ -94,6 +95,8 @@ std::shared_ptr<fem::Form<double>> with_kernel(Kernel kernel, const fem::Form<do
                                                const mesh::MeshTags<std::int32_t>* tags,
                                                int value)
 {
+  if (full.integral_types() != std::set<fem::IntegralType>{fem::IntegralType::cell})
+    throw std::logic_error("with_kernel: only forms with cell integrals alone");
   std::map<fem::IntegralType,
            std::pair<std::vector<std::pair<int, Kernel>>, const mesh::MeshTags<int>*>>
       integrals;

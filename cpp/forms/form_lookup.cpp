@@ -55,10 +55,15 @@ const FeVariant& find_fe_variant(const std::string& model,
     wanted += " and volumetric quadrature degree "
               + std::to_string(volumetric_quadrature_degree);
   std::string why;
-  if (volumetric_quadrature_degree != quadrature_degree)
-    why = " The anti-locking element is compiled for BLE on hexahedra of degree 1 only: "
-          "WKM, GIANT and COMBI need their coupled penalty at every quadrature point "
-          "(on one point their volume modes within a cell are unstable; BENCHMARKS.md).";
+  const bool ble = model.rfind("ble", 0) == 0;
+  if (volumetric_quadrature_degree != quadrature_degree and !ble)
+    why = " The anti-locking element is compiled for BLE only: WKM, GIANT and COMBI need "
+          "their coupled penalty at every quadrature point (on one point their volume "
+          "modes within a cell are unstable, so compiling it would not help; "
+          "BENCHMARKS.md).";
+  else if (volumetric_quadrature_degree != quadrature_degree)
+    why = " The standard build has BLE's anti-locking element on hexahedra of degree 1 "
+          "with quadrature degree 2 and volumetric degree 1.";
   throw InputError("no compiled kernels for model " + model + " on " + cell
                    + " degree " + std::to_string(degree) + " with " + wanted
                    + "; compiled: " + join(available, "; ") + "." + why

@@ -33,7 +33,8 @@ struct OmegaTaylor
 /// d1 comes from the implicit-function theorem; WKM's tangent needs no d2.
 ///
 /// `root_tolerance`: the root finder stops when its step is below this times
-/// max(1, |z|) (default: round-off; a looser one is a speed knob, BENCHMARKS.md).
+/// max(1, |z|) (default: round-off; a looser one saves no measurable time,
+/// BENCHMARKS.md).
 OmegaTaylor wkm_omega(double stretch, double level, const EhretParameters& p,
                       double root_tolerance = default_root_tolerance);
 

@@ -616,7 +616,7 @@ Scene parse_scene(const std::string& text, const std::string& name,
     scene.mesh.degree = el["degree"].integer(1, 1, 2);
     scene.mesh.quadrature_degree = el["quadrature_degree"].integer(-1, 1, 12);
     scene.mesh.volumetric_quadrature_degree
-        = el["volumetric_quadrature_degree"].integer(-1, 0, 12);
+        = el["volumetric_quadrature_degree"].integer(-1, 1, 12);
   }
 
   // parts
@@ -632,7 +632,9 @@ Scene parse_scene(const std::string& text, const std::string& name,
     if (!part_names.insert(scene.parts.back().name).second)
       parts.at(i)["name"].fail("two parts named '" + scene.parts.back().name + "'");
     const int vq = scene.mesh.volumetric_quadrature_degree;
-    if (vq >= 0 and scene.parts.back().parameters.model() != Model::ble)
+    const int q = scene.mesh.quadrature_degree >= 0 ? scene.mesh.quadrature_degree
+                                                    : (scene.mesh.degree == 1 ? 2 : 4);
+    if (vq >= 0 and vq != q and scene.parts.back().parameters.model() != Model::ble)
       el["volumetric_quadrature_degree"].fail(
           "the anti-locking element (a volumetric quadrature degree of its own) is "
           "compiled for BLE only, part '" + scene.parts.back().name + "' is "

@@ -81,8 +81,9 @@ Settings parse(std::vector<std::string> args)
                "BLE on Q1 hexahedra: stiff volumetric part on one point per cell "
                "(selective reduced integration)");
   app.add_option("--root-tolerance", s.root_tolerance,
-                 "WKM/GIANT: relative step tolerance of the activation root finder (speed "
-                 "knob; default round-off)")->capture_default_str();
+                 "WKM/GIANT: relative step tolerance of the activation root finder "
+                 "(default round-off; looser saves no time, BENCHMARKS.md)")
+      ->capture_default_str();
   app.add_option("--dt", s.dt, "time step [s] (default 0.001 for WKM/GIANT, which resolves "
                  "the 4 ms twitch train, 0.005 for BLE/COMBI)");
   app.add_option("--t-end", s.t_end, "end time [s]")->capture_default_str();
@@ -124,15 +125,15 @@ Settings parse(std::vector<std::string> args)
   s.element.degree = s.degree;
   if (s.anti_locking)
   {
-    if (s.cell != "hex" or s.degree != 1 or s.model != "ble")
+    if (s.cell != "hex" or s.degree != 1 or parse_model(s.model) != Model::ble)
       throw InputError("--anti-locking: only for --model ble --cell hex --degree 1 (WKM, "
                        "GIANT and COMBI are unstable with a one-point penalty; Q2 does not "
                        "lock; BENCHMARKS.md)");
     s.element.volumetric_quadrature_degree = 1;
   }
-  if (!(s.root_tolerance > 0 and s.root_tolerance < 1))
+  if (!(s.root_tolerance >= 1e-16 and s.root_tolerance < 1))
     throw InputError("--root-tolerance " + std::to_string(s.root_tolerance)
-                     + ": allowed between 0 and 1 (exclusive)");
+                     + ": allowed from 1e-16 (round-off; smaller never stops) to below 1");
   if (s.dt == -1)
     s.dt = uses_twitch_train(parse_model(s.model)) ? 0.001 : 0.005;
   if (!(s.dt > 0) or !(s.t_end > 0))

@@ -6,6 +6,7 @@
     test_scenes.py resume --build DIR    a run killed midway resumes to the uninterrupted result
     test_scenes.py parity --build DIR    1 and 2 MPI ranks agree (and resume across them)
     test_scenes.py parts --build DIR     several parts: a split body equals the whole, 1 = 2 ranks
+    test_scenes.py anti_locking --build DIR  BLE's anti-locking Q1 against Q1 and Q2 (block)
     test_scenes.py extremes --build DIR  penalty x1000, activation x2, one large step,
                                          nearly degenerate elements: converge or stop cleanly
 
@@ -453,11 +454,6 @@ def extremes(build):
 
 
 # ---------------------------------------------------------------------------
-# several parts: a body split into parts of the same material must give the
-# single-part result (the forms, kernels and post-processing of each part see
-# only its cells); a real two-material body agrees on 1 and 2 ranks.
-# ---------------------------------------------------------------------------
-# ---------------------------------------------------------------------------
 # anti-locking Q1 (BLE): the free shortening of the graded block against Q2
 # ---------------------------------------------------------------------------
 def anti_locking(build):
@@ -494,6 +490,11 @@ def anti_locking(build):
           f"anti-locking Q1: {error['Q1 anti-locking']:.1%} from Q2 (plain {error['Q1']:.1%})")
 
 
+# ---------------------------------------------------------------------------
+# several parts: a body split into parts of the same material must give the
+# single-part result (the forms, kernels and post-processing of each part see
+# only its cells); a real two-material body agrees on 1 and 2 ranks.
+# ---------------------------------------------------------------------------
 def split_in_two(text, part_a, part_b):
     start = text.index("parts:\n") + len("parts:\n")
     end = text.index("boundary:")
