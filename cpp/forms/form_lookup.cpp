@@ -6,10 +6,8 @@
 
 namespace muscle::forms
 {
-namespace
-{
 // default quadrature degree per (cell, degree); mirrors forms/muscleforms/variants.py
-int default_quadrature(const std::string& cell, int degree)
+int default_quadrature_degree(const std::string& cell, int degree)
 {
   static const std::map<std::pair<std::string, int>, int> table
       = {{{"hexahedron", 1}, 2},
@@ -19,7 +17,6 @@ int default_quadrature(const std::string& cell, int degree)
   auto it = table.find({cell, degree});
   return it == table.end() ? -1 : it->second;
 }
-} // namespace
 
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
@@ -27,7 +24,7 @@ const FeVariant& find_fe_variant(const std::string& model,
                                  int volumetric_quadrature_degree)
 {
   if (quadrature_degree < 0)
-    quadrature_degree = default_quadrature(cell, degree);
+    quadrature_degree = default_quadrature_degree(cell, degree);
   if (volumetric_quadrature_degree < 0)
     volumetric_quadrature_degree = quadrature_degree;
   auto describe = [](const FeVariant& v)

@@ -56,6 +56,10 @@ const std::vector<FeVariant>& fe_variants();
 const std::vector<FibreVariant>& fibre_variants();
 const std::vector<MaterialPointVariant>& material_point_variants();
 
+/// The quadrature degree of the standard build for a cell ("hexahedron",
+/// "tetrahedron") and displacement degree; -1 if there is none.
+int default_quadrature_degree(const std::string& cell, int degree);
+
 /// Look up a compiled variant; InputError listing what is available otherwise.
 /// quadrature_degree < 0 selects the default for the element,
 /// volumetric_quadrature_degree < 0 the same rule as the rest of the energy.

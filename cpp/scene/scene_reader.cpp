@@ -3,6 +3,7 @@
 #include "scene.h"
 
 #include "../common/errors.h"
+#include "../forms/form_registry.h"
 
 #include <algorithm>
 #include <cmath>
@@ -632,8 +633,10 @@ Scene parse_scene(const std::string& text, const std::string& name,
     if (!part_names.insert(scene.parts.back().name).second)
       parts.at(i)["name"].fail("two parts named '" + scene.parts.back().name + "'");
     const int vq = scene.mesh.volumetric_quadrature_degree;
-    const int q = scene.mesh.quadrature_degree >= 0 ? scene.mesh.quadrature_degree
-                                                    : (scene.mesh.degree == 1 ? 2 : 4);
+    // the defaults are the same on hexahedra and tetrahedra
+    const int q = scene.mesh.quadrature_degree >= 0
+                      ? scene.mesh.quadrature_degree
+                      : forms::default_quadrature_degree("hexahedron", scene.mesh.degree);
     if (vq >= 0 and vq != q and scene.parts.back().parameters.model() != Model::ble)
       el["volumetric_quadrature_degree"].fail(
           "the anti-locking element (a volumetric quadrature degree of its own) is "

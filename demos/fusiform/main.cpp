@@ -52,7 +52,7 @@ struct Settings
   std::string mesh = std::string(MUSCLE_SOURCE_DIR) + "/meshes/fusiform.geo";
   int refinement = 1, degree = 1, output_every = 1;
   Discretisation element;
-  double dt = -1, t_end = 0.15, root_tolerance = 1e-15;
+  double dt = -1, t_end = 0.15, root_tolerance = default_root_tolerance;
   std::vector<std::string> assignments, mesh_numbers;
   bool quiet = false, no_fields = false, condition_number = false, anti_locking = false;
   NewtonOptions newton;
