@@ -3,7 +3,7 @@
 // element and quadrature; for WKM and GIANT also the quadrature-point kernel
 // update (omega_a and its derivatives), which runs before every residual.
 //
-//   bench-assembly [--refinement 1|2|4] [--cell hex|tet] [--degree 1|2]
+//   bench-assembly [--refinement 1|2|4] [--cell hex|tet] [--degree 1|2] [--fbar]
 //                  [--repetitions N] [--amplitude A] [--models ...] [--json FILE]
 //
 // On a shared machine wall times are noisy; for load-independent numbers run it
@@ -227,6 +227,7 @@ int main(int argc, char** argv)
 {
   return run_application(argc, argv, [](std::vector<std::string> args) {
     int refinement = 1, degree = 1, repetitions = 7;
+    bool fbar = false;
     double amplitude = 1.0;
     std::string cell = "hex", json_path;
     std::vector<std::string> models = {"ble", "wkm", "giant", "combi"};
@@ -235,6 +236,7 @@ int main(int argc, char** argv)
     app.add_option("--refinement", refinement, "fusiform refinement n")->capture_default_str();
     app.add_option("--cell", cell, "hex or tet")->capture_default_str();
     app.add_option("--degree", degree, "displacement degree 1 or 2")->capture_default_str();
+    app.add_flag("--fbar", fbar, "the muscle models on F-bar hexahedra (degree 1)");
     app.add_option("--repetitions", repetitions, "timed repetitions per operation")
         ->capture_default_str();
     app.add_option("--amplitude", amplitude, "scale of the benchmark displacement")
@@ -262,7 +264,8 @@ int main(int argc, char** argv)
     for (const std::string& name : models)
     {
       ParameterSet parameters(parse_model(name));
-      auto p = std::make_unique<MuscleProblem>(mesh, parameters, Discretisation{degree, -1});
+      auto p = std::make_unique<MuscleProblem>(mesh, parameters,
+                                               Discretisation{degree, -1, -1, fbar});
       if (!fibres.fibre)
         fibres = laplace_fibres(mesh, *gm.facet_tags, gm.surface("origin"),
                                 gm.surface("insertion"), p->fibre()->function_space());
@@ -302,9 +305,9 @@ int main(int argc, char** argv)
 
     const std::int64_t unknowns = V->dofmap()->index_map->size_global() * 3;
     if (is_root())
-      std::printf("fusiform n=%d %s degree %d (quadrature degree %d): %lld cells, %lld "
+      std::printf("fusiform n=%d %s degree %d%s (quadrature degree %d): %lld cells, %lld "
                   "unknowns, %d ranks, %d repetitions, load average %.2f\n",
-                  refinement, cell.c_str(), degree, nh.quadrature_degree,
+                  refinement, cell.c_str(), degree, fbar ? " F-bar" : "", nh.quadrature_degree,
                   static_cast<long long>(gm.num_cells), static_cast<long long>(unknowns),
                   dolfinx::MPI::size(comm), repetitions, load_before[0]);
 
@@ -317,6 +320,7 @@ int main(int argc, char** argv)
     const double ref_newton = ref.jacobian.median() + ref.residual.median();
     const double ref_newton_cpu = ref.jacobian.cpu_median() + ref.residual.cpu_median();
     nlohmann::json out = {{"refinement", refinement}, {"cell", cell}, {"degree", degree},
+                          {"fbar", fbar},
                           {"quadrature_degree", nh.quadrature_degree},
                           {"cells", gm.num_cells}, {"unknowns", unknowns},
                           {"ranks", dolfinx::MPI::size(comm)}, {"repetitions", repetitions},

@@ -1,11 +1,12 @@
 #!/usr/bin/python3
 """Compile the muscle forms with FFCx: one C file per variant plus a C++ registry.
 
-    compile_forms.py --out DIR [--variant MODEL:CELL:DEGREE[:QDEG[:VQDEG]] ...]
+    compile_forms.py --out DIR [--variant MODEL:CELL:DEGREE[:QDEG[:VQDEG|:fbar]] ...]
 
 Without --variant it builds every model on hexahedra and tetrahedra of degree 1 and 2
 at the default quadrature degree, the anti-locking Q1 of BLE (volumetric part on one
-point, VQDEG 1), and one material-point variant per model.  CMake
+point, VQDEG 1), the F-bar Q1 hexahedron of every model, and one material-point variant
+per model.  CMake
 runs this whenever a file under forms/ changes (the form-regeneration workflow).
 """
 
@@ -18,7 +19,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from ffcx import compiler, formatting  # noqa: E402
 from ffcx.parameters import get_parameters  # noqa: E402
 
-from muscleforms import variants  # noqa: E402
+from muscleforms import fbar, variants  # noqa: E402
 from muscleforms.activation import TAYLOR_ORDER  # noqa: E402
 
 
@@ -28,17 +29,22 @@ def default_variants():
         for cell in variants.CELLS:
             for degree in (1, 2):
                 qdeg = variants.DEFAULT_QUADRATURE[(cell, degree)]
-                out.append((model, cell, degree, qdeg, qdeg))
+                out.append((model, cell, degree, qdeg, qdeg, False))
                 vqdeg = variants.REDUCED_VOLUMETRIC.get((cell, degree))
                 if vqdeg is not None and model in variants.ANTI_LOCKING_MODELS:
-                    out.append((model, cell, degree, qdeg, vqdeg))
+                    out.append((model, cell, degree, qdeg, vqdeg, False))
+                if (cell, degree) in fbar.FBAR_ELEMENTS and model in fbar.FBAR_MODELS:
+                    out.append((model, cell, degree, qdeg, qdeg, True))
     return out
 
 
 def parse_variant(text):
     parts = text.split(":")
     if len(parts) not in (3, 4, 5):
-        raise SystemExit(f"--variant {text!r}: expected MODEL:CELL:DEGREE[:QDEG[:VQDEG]]")
+        raise SystemExit(f"--variant {text!r}: expected MODEL:CELL:DEGREE[:QDEG[:VQDEG|:fbar]]")
+    with_fbar = len(parts) == 5 and parts[4] == "fbar"
+    if with_fbar:
+        parts = parts[:4]
     model, cell, degree = parts[0], parts[1], int(parts[2])
     if model not in variants.MODELS or cell not in variants.CELLS or degree not in (1, 2):
         raise SystemExit(f"--variant {text!r}: model in {variants.MODELS}, cell in "
@@ -47,7 +53,10 @@ def parse_variant(text):
     vqdeg = int(parts[4]) if len(parts) == 5 else qdeg
     if not 0 <= vqdeg <= qdeg:
         raise SystemExit(f"--variant {text!r}: VQDEG {vqdeg} must be between 0 and QDEG {qdeg}")
-    return model, cell, degree, qdeg, vqdeg
+    if with_fbar and ((cell, degree) not in fbar.FBAR_ELEMENTS or model not in fbar.FBAR_MODELS):
+        raise SystemExit(f"--variant {text!r}: F-bar is for hex degree 1 and the models "
+                         f"{fbar.FBAR_MODELS}")
+    return model, cell, degree, qdeg, vqdeg, with_fbar
 
 
 def write_if_changed(path, text):
@@ -73,6 +82,15 @@ def registry_source(fe_variants, models):
              '#include "form_registry.h"']
     for v in fe_variants:
         lines.append(f'#include "{variants.variant_name(*v)}.h"')
+    lines += ["", "namespace", "{"]
+    for v in fe_variants:
+        if v[5]:
+            n = variants.variant_name(*v)
+            kernels = ", ".join(f"form_{n}_fbar_{k}" for k in
+                                ("residual", "jacobian", "centre", "gradient", "hessian"))
+            lines.append(f"const muscle::forms::FbarForms fbar_{n} = {{{kernels}, "
+                         f"expression_{n}_fbar_centre_dilatation}};")
+    lines += ["} // namespace"]
     for m in models:
         lines.append(f'#include "mp_{m}.h"')
     for c in variants.CELLS:
@@ -80,14 +98,15 @@ def registry_source(fe_variants, models):
     lines += ["", "namespace muscle::forms", "{", "",
               "const std::vector<FeVariant>& fe_variants()", "{",
               "  static const std::vector<FeVariant> table = {"]
-    for (model, cell, degree, qdeg, vqdeg) in fe_variants:
-        n = variants.variant_name(model, cell, degree, qdeg, vqdeg)
+    for (model, cell, degree, qdeg, vqdeg, with_fbar) in fe_variants:
+        n = variants.variant_name(model, cell, degree, qdeg, vqdeg, with_fbar)
         stretch = f"expression_{n}_fibre_stretch" if model in TAYLOR_ORDER else "nullptr"
         split = (f"form_{n}_residual_volumetric, form_{n}_jacobian_volumetric" if vqdeg != qdeg
                  else "nullptr, nullptr")
         lines.append(f'      {{"{model}", "{variants.CELLS[cell]}", {degree}, {qdeg}, {vqdeg}, '
                      f'form_{n}_residual, form_{n}_jacobian, {split}, form_{n}_volume, '
-                     f'functionspace_form_{n}_residual, {stretch}, expression_{n}_post}},')
+                     f'functionspace_form_{n}_residual, {stretch}, expression_{n}_post, '
+                     f'{"&fbar_" + n if with_fbar else "nullptr"}}},')
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<MaterialPointVariant>& material_point_variants()", "{",
               "  static const std::vector<MaterialPointVariant> table = {"]
@@ -127,7 +146,8 @@ def main():
 
     parameters = get_parameters({"verbosity": 40})
     for v in fe:
-        compile_objects(variants.build_fe_variant(*v), variants.variant_name(*v), outdir, parameters)
+        names = (fbar.build_fbar_variant(*v[:4]) if v[5] else variants.build_fe_variant(*v[:5]))
+        compile_objects(names, variants.variant_name(*v), outdir, parameters)
     for m in mp_models:
         compile_objects(variants.build_material_point_variant(m), f"mp_{m}", outdir, parameters)
     for c in variants.CELLS:

@@ -30,8 +30,7 @@ std::int32_t num_local_cells(const mesh::Mesh& mesh, bool with_ghosts)
   return map->size_local() + (with_ghosts ? map->num_ghosts() : 0);
 }
 
-using Kernel = std::function<void(double*, const double*, const double*, const double*,
-                                  const int*, const std::uint8_t*)>;
+using Kernel = CellKernel;
 
 /// Positions in a form's packed array of the entries named `wanted`, each
 /// name's entries [offsets[i], offsets[i + 1]) with i its place in `names`.
@@ -120,7 +119,8 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
   const std::string cell = mesh::to_string(mesh->topology().cell_type());
   _variant = &forms::find_fe_variant(_kernels, cell, discretisation.degree,
                                      discretisation.quadrature_degree,
-                                     discretisation.volumetric_quadrature_degree);
+                                     discretisation.volumetric_quadrature_degree,
+                                     discretisation.fbar);
   const forms::FeVariant& v = *_variant;
 
   _V = std::make_shared<fem::FunctionSpace>(
@@ -163,6 +163,18 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
 
   std::map<std::string, std::shared_ptr<const fem::Function<double>>> coefficients
       = {{"u", _u}, {"fibre", _fibre}, {"activation_scale", _scale}};
+  if (v.fbar)
+  {
+    _fbar = std::make_shared<FbarElement>(*v.fbar);
+    _fbar_J0 = std::make_shared<fem::Function<double>>(cell_space(1));
+    _fbar_J0->name = "fbar_J0";
+    std::fill(_fbar_J0->x()->mutable_array().begin(), _fbar_J0->x()->mutable_array().end(),
+              1.0);
+    coefficients["fbar_J0"] = _fbar_J0;
+    _fbar_pressure = std::make_shared<fem::Function<double>>(cell_space(1));
+    _fbar_pressure->name = "fbar_pressure";
+    coefficients["fbar_pressure"] = _fbar_pressure;
+  }
   for (const std::string& name : fem::get_coefficient_names(*v.residual))
   {
     if (name.rfind("omega_a", 0) == 0 or name.rfind("domega_a", 0) == 0
@@ -190,9 +202,12 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
       fem::create_form<double>(*v.jacobian, {_V, _V}, coefficients, constants, {}));
   _volume = std::make_shared<fem::Form<double>>(
       fem::create_form<double>(*v.volume, {}, coefficients, constants, {}, mesh));
-  _residual_kernel = cell_kernel(*v.residual, *_residual, v.residual_volumetric);
-  const Kernel jacobian_kernel = cell_kernel(*v.jacobian, *_jacobian, v.jacobian_volumetric);
-  if (v.residual_volumetric)
+  _residual_kernel = _fbar ? _fbar->residual(*v.residual, *_residual)
+                          : cell_kernel(*v.residual, *_residual, v.residual_volumetric);
+  const Kernel jacobian_kernel
+      = _fbar ? _fbar->jacobian(*v.jacobian, *_jacobian)
+              : cell_kernel(*v.jacobian, *_jacobian, v.jacobian_volumetric);
+  if (v.residual_volumetric or _fbar)
   {
     _residual = with_kernel(_residual_kernel, *_residual, nullptr, 0);
     _jacobian = with_kernel(jacobian_kernel, *_jacobian, nullptr, 0);
@@ -212,6 +227,12 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
   }
   _post_expression = std::make_shared<fem::Expression<double>>(
       fem::create_expression<double>(*v.post, coefficients, constants, mesh));
+  if (_fbar)
+  {
+    _centre_dilatation = std::make_shared<fem::Expression<double>>(
+        fem::create_expression<double>(*v.fbar->centre_dilatation, coefficients, constants,
+                                       mesh));
+  }
 
   const auto cell_type = mesh::cell_type_to_basix_type(mesh->topology().cell_type());
   _quadrature_weights = basix::quadrature::make_quadrature(
@@ -264,9 +285,42 @@ void MuscleProblem::set_time_factor(double factor)
   _constants.at("time_factor")->value = {_time_factor};
 }
 
+void MuscleProblem::reset_fbar_theta() const
+{
+  if (!_fbar)
+    return;
+  // owned and ghost cells: every rank evaluates its ghosts itself
+  xt::xtensor<double, 2> J0({_cells.size(), 1});
+  _centre_dilatation->eval(std::span<const std::int32_t>(_cells), J0);
+  const auto& dofmap = *_fbar_J0->function_space()->dofmap();
+  std::span<double> x = _fbar_J0->x()->mutable_array();
+  for (std::size_t i = 0; i < _cells.size(); ++i)
+    x[dofmap.cell_dofs(_cells[i])[0]] = J0(i, 0);
+}
+
+void MuscleProblem::update_centre_dilatation() const
+{
+  if (!_hold_theta)
+    reset_fbar_theta();
+}
+
+std::shared_ptr<fem::Form<double>>
+MuscleProblem::fbar_three_field_form(bool jacobian, FbarElement::CellData& data) const
+{
+  if (!_fbar)
+    throw std::logic_error("fbar_three_field_form: not an F-bar problem");
+  const fem::Form<double>& carrier = jacobian ? *_jacobian : *_residual;
+  const ufcx_form& ufcx = jacobian ? *_variant->jacobian : *_variant->residual;
+  Kernel kernel = jacobian ? _fbar->three_field_jacobian(ufcx, carrier, data)
+                           : _fbar->three_field_residual(ufcx, carrier, data);
+  return with_kernel(kernel, carrier, _region ? _region->tags.get() : nullptr,
+                     _region ? _region->value : 0);
+}
+
 KernelStatus MuscleProblem::update_activation()
 {
   KernelStatus status;
+  update_centre_dilatation();
   if (_taylor.empty())
     return status;
 
@@ -330,6 +384,7 @@ double MuscleProblem::volume() const
 
 MuscleProblem::PostFields MuscleProblem::post_fields() const
 {
+  update_centre_dilatation();
   const std::vector<std::int32_t>& cells = _owned_cells;
   const std::size_t nq = _quadrature_weights.size();
   xt::xtensor<double, 2> values({cells.size(), 4 * nq});
@@ -361,6 +416,7 @@ MuscleProblem::PostFields MuscleProblem::post_fields() const
 
 std::pair<double, std::int32_t> MuscleProblem::min_jacobian_determinant() const
 {
+  update_centre_dilatation();
   const std::vector<std::int32_t>& cells = _owned_cells;
   const std::size_t nq = _quadrature_weights.size();
   xt::xtensor<double, 2> values({cells.size(), 4 * nq});

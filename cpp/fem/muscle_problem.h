@@ -1,6 +1,7 @@
 #pragma once
 
 #include "../material/activation_kernels.h"
+#include "fbar_element.h"
 #include "../material/parameters.h"
 
 #include <array>
@@ -32,6 +33,9 @@ struct Discretisation
   /// rule of the stiff volumetric part; -1: quadrature_degree.  1 on Q1 is the
   /// anti-locking choice (selective reduced integration).
   int volumetric_quadrature_degree = -1;
+  /// F-bar hexahedron (Q1): the energy at F_bar = (J0/J)^(1/3) F, J0 = det F at
+  /// the cell centre -- the paper's locking-free element, for every model.
+  bool fbar = false;
 };
 
 /// Outcome of evaluating the quadrature-point activation kernels.
@@ -100,6 +104,26 @@ public:
 
   std::shared_ptr<const dolfinx::fem::Form<double>> residual() const { return _residual; }
   std::shared_ptr<const dolfinx::fem::Form<double>> jacobian() const { return _jacobian; }
+  /// F-bar hexahedra (Discretisation::fbar).
+  bool fbar() const { return _fbar != nullptr; }
+
+  /// Three-field F-bar (FbarCellUnknowns): theta = "fbar_J0" and its
+  /// multiplier p as DG0 fields, read by every F-bar kernel and expression.
+  std::shared_ptr<dolfinx::fem::Function<double>> fbar_theta() const { return _fbar_J0; }
+  std::shared_ptr<dolfinx::fem::Function<double>> fbar_pressure() const
+  {
+    return _fbar_pressure;
+  }
+  /// While held, update_activation() leaves theta to the solver instead of
+  /// setting it to J0(u).
+  void hold_fbar_theta(bool hold) { _hold_theta = hold; }
+  /// theta = J0(u) on every local cell.
+  void reset_fbar_theta() const;
+  /// The three-field kernels as forms on V (residual) and V x V (jacobian),
+  /// writing their per-cell results into `data`; they expect packed
+  /// coefficients widened by the cell's position (FbarElement).
+  std::shared_ptr<dolfinx::fem::Form<double>>
+  fbar_three_field_form(bool jacobian, FbarElement::CellData& data) const;
 
   /// The residual assembled over the cells tagged `value` only (same kernel):
   /// summing it over the nodes of an interface gives the force the rest of the
@@ -153,6 +177,13 @@ private:
                      const std::uint8_t*)>
       _residual_kernel;
   std::shared_ptr<dolfinx::fem::Expression<double>> _stretch_expression, _post_expression;
+  /// F-bar: the kernels, J0 at the cell centres (read by the expressions) and
+  /// the expression that computes it
+  std::shared_ptr<const FbarElement> _fbar;
+  std::shared_ptr<dolfinx::fem::Function<double>> _fbar_J0, _fbar_pressure;
+  bool _hold_theta = false;
+  std::shared_ptr<dolfinx::fem::Expression<double>> _centre_dilatation;
+  void update_centre_dilatation() const;
   std::vector<double> _quadrature_weights;
   std::vector<std::int32_t> _cells, _owned_cells;
   std::optional<CellRegion> _region;

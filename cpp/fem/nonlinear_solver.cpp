@@ -1,7 +1,9 @@
 #include "nonlinear_solver.h"
 
+#include "fbar_unknowns.h"
 #include "uniform_constraint.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <dolfinx/fem/assembler.h>
@@ -36,9 +38,17 @@ MatNullSpace rigid_body_modes(const fem::FunctionSpace& V)
     basis[5].mutable_array()[3 * i + 2] = -p[0];
   }
   la::orthonormalize(std::span<la::Vector<double>>(basis));
+  // PETSc-owned copies: the null space outlives `basis` (a wrapped array would
+  // dangle, and GAMG would coarsen with whatever reuses that memory)
   std::vector<Vec> vecs;
   for (auto& b : basis)
-    vecs.push_back(la::petsc::create_vector_wrap(b));
+  {
+    Vec wrap = la::petsc::create_vector_wrap(b), copy;
+    VecDuplicate(wrap, &copy);
+    VecCopy(wrap, copy);
+    VecDestroy(&wrap);
+    vecs.push_back(copy);
+  }
   MatNullSpace ns;
   MatNullSpaceCreate(map->comm(), PETSC_FALSE, 6, vecs.data(), &ns);
   for (Vec& v : vecs)
@@ -64,7 +74,8 @@ NonlinearSolver::NonlinearSolver(
     NewtonOptions options)
     : _parts(std::move(parts)), _problem(*_parts.at(0)), _bcs(std::move(bcs)),
       _constraint(std::move(constraint)), _options(std::move(options)),
-      _b(_problem.V()->dofmap()->index_map, _problem.V()->dofmap()->index_map_bs())
+      _b(_problem.V()->dofmap()->index_map, _problem.V()->dofmap()->index_map_bs()),
+      _work(_b), _work2(_b)
 {
   MuscleProblem& problem = _problem;
   auto V = problem.V();
@@ -91,15 +102,13 @@ NonlinearSolver::NonlinearSolver(
   SNESCreate(comm, &_snes);
   Vec F;
   Mat J = _A;
+  const bool three_field
+      = _options.fbar_cell_unknowns
+        and std::all_of(_parts.begin(), _parts.end(), [](auto* p) { return p->fbar(); });
   if (_constraint)
   {
     _x = _constraint->create_reduced_vector();
     VecDuplicate(_x, &F);
-    // P^T A P needs an assembled A for its symbolic phase
-    update_activation();
-    assemble_full_jacobian();
-    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
-    J = _A_red;
   }
   else
   {
@@ -107,6 +116,21 @@ NonlinearSolver::NonlinearSolver(
     _u_petsc = la::petsc::create_vector_wrap(*problem.u()->x());
     VecDuplicate(_u_petsc, &_x);
     VecDuplicate(_b_petsc, &F);
+  }
+  if (three_field)
+  {
+    VecDestroy(&F);
+    create_cell_unknowns();
+    VecDuplicate(_x_ext, &F);
+    J = _J_ext;
+  }
+  else if (_constraint)
+  {
+    // P^T A P needs an assembled A for its symbolic phase
+    update_activation();
+    assemble_full_jacobian();
+    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
+    J = _A_red;
   }
   SNESSetFunction(_snes, F, residual_callback, this);
   VecDestroy(&F);
@@ -120,19 +144,21 @@ NonlinearSolver::NonlinearSolver(
   SNESLineSearchSetType(ls, _options.line_search.c_str());
   KSP ksp;
   SNESGetKSP(_snes, &ksp);
+  // three-field: the linear solver works on the condensed displacement system
+  KSP linear = three_field ? _inner : ksp;
   PC pc;
-  KSPGetPC(ksp, &pc);
+  KSPGetPC(linear, &pc);
   if (_options.linear_solver == "lu")
   {
-    KSPSetType(ksp, KSPPREONLY);
+    KSPSetType(linear, KSPPREONLY);
     PCSetType(pc, PCLU);
     PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
   }
   else
   {
-    KSPSetType(ksp, KSPGMRES);
-    KSPSetTolerances(ksp, 1e-10, 1e-14, PETSC_DEFAULT, 2000);
-    KSPGMRESSetRestart(ksp, 200);
+    KSPSetType(linear, KSPGMRES);
+    KSPSetTolerances(linear, _options.linear_rtol, 1e-14, PETSC_DEFAULT, 2000);
+    KSPGMRESSetRestart(linear, 200);
     if (_options.linear_solver == "gmres-hypre")
     {
       PCSetType(pc, PCHYPRE);
@@ -153,11 +179,27 @@ NonlinearSolver::NonlinearSolver(
   SNESSetConvergenceHistory(_snes, nullptr, nullptr, 1000, PETSC_TRUE);
   SNESSetConvergenceTest(_snes, convergence_test, this, nullptr);
   SNESSetFromOptions(_snes);
+  if (three_field)
+  {
+    // PETSc's -ksp_* and -pc_* options configure the condensed solve; the SNES's
+    // own KSP only eliminates and recovers the cell unknowns around it
+    KSPSetFromOptions(_inner);
+    KSPSetType(ksp, KSPPREONLY);
+    KSPGetPC(ksp, &pc);
+    PCSetType(pc, PCSHELL);
+    PCShellSetContext(pc, this);
+    PCShellSetApply(pc, condensed_solve);
+    PCShellSetName(pc, "F-bar cell unknowns eliminated around the condensed solve");
+  }
 }
 
 NonlinearSolver::~NonlinearSolver()
 {
   SNESDestroy(&_snes);
+  KSPDestroy(&_inner);
+  MatDestroy(&_J_ext);
+  for (Vec* v : {&_x_ext, &_rhs, &_sol, &_tmp})
+    VecDestroy(v);
   MatDestroy(&_A);
   if (_A_red)
     MatDestroy(&_A_red);
@@ -223,6 +265,20 @@ std::pair<double, std::int32_t> NonlinearSolver::min_jacobian_determinant() cons
 PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void* ctx)
 {
   auto* self = static_cast<NonlinearSolver*>(ctx);
+  if (!self->_cell_unknowns.empty())
+  {
+    self->set_extended_state(x);
+    self->extended_residual(F);
+    PetscReal norm;
+    VecNorm(F, NORM_2, &norm);
+    if (!std::isfinite(norm) or !std::isfinite(self->_constraint_violation)
+        or !self->_last_kernel.ok())
+    {
+      self->_non_finite = self->_non_finite or !std::isfinite(norm);
+      SNESSetFunctionDomainError(snes);
+    }
+    return 0;
+  }
   self->set_state(x);
   std::span<double> b = self->_b.mutable_array();
   std::fill(b.begin(), b.end(), 0.0);
@@ -269,6 +325,17 @@ void NonlinearSolver::assemble_full_jacobian()
 PetscErrorCode NonlinearSolver::jacobian_callback(SNES snes, Vec x, Mat J, Mat, void* ctx)
 {
   auto* self = static_cast<NonlinearSolver*>(ctx);
+  if (!self->_cell_unknowns.empty())
+  {
+    self->set_extended_state(x);
+    self->assemble_three_field_jacobian();
+    if (!std::isfinite(self->_matrix_norm))
+    {
+      self->_non_finite = true;
+      SNESSetJacobianDomainError(snes);
+    }
+    return 0;
+  }
   self->set_state(x);
   self->assemble_full_jacobian();
   // The tangent can overflow where the residual is still finite (the coupled
@@ -297,8 +364,12 @@ PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
   // lie above any fixed atol, and Newton would stagnate there.
   const double floor
       = 100 * std::numeric_limits<double>::epsilon() * self->_matrix_norm * xnorm;
-  if (*reason == SNES_CONVERGED_ITERATING and fnorm <= floor)
+  if (*reason == SNES_CONVERGED_ITERATING and std::isfinite(floor) and fnorm <= floor)
     *reason = SNES_CONVERGED_FNORM_ABS;
+  // three-field: converged only once theta = J0(u) too (R_p is tiny in the norm)
+  if (*reason > 0 and !self->_cell_unknowns.empty()
+      and !(self->_constraint_violation <= self->_options.fbar_constraint_tolerance))
+    *reason = SNES_CONVERGED_ITERATING;
   if (it == 0)
     self->_norms.clear();
   self->_norms.push_back(fnorm);
@@ -321,8 +392,31 @@ NewtonReport NonlinearSolver::solve()
     _constraint->restrict_to(*_problem.u()->x(), _x);
   else
     VecCopy(_u_petsc, _x);
-  SNESSolve(_snes, nullptr, _x);
-  set_state(_x); // leave u (and omega_a) at the final iterate
+  const long inner_before = _inner_iterations;
+  if (!_cell_unknowns.empty())
+  {
+    // theta = J0(u), p = r_0: the converged state's own cell unknowns
+    _problem.u()->x()->scatter_fwd();
+    for (auto& cells : _cell_unknowns)
+      cells->initialise();
+    PetscScalar* a;
+    VecGetArray(_x_ext, &a);
+    Blocks b = blocks(a);
+    const PetscScalar* xu;
+    VecGetArrayRead(_x, &xu);
+    std::copy(xu, xu + b.u.size(), b.u.begin());
+    VecRestoreArrayRead(_x, &xu);
+    for (std::size_t i = 0; i < _cell_unknowns.size(); ++i)
+      _cell_unknowns[i]->get(b.cells[i]);
+    VecRestoreArray(_x_ext, &a);
+    SNESSolve(_snes, nullptr, _x_ext);
+    set_extended_state(_x_ext);
+  }
+  else
+  {
+    SNESSolve(_snes, nullptr, _x);
+    set_state(_x); // leave u (and omega_a) at the final iterate
+  }
 
   SNESConvergedReason reason;
   SNESGetConvergedReason(_snes, &reason);
@@ -336,7 +430,7 @@ NewtonReport NonlinearSolver::solve()
   SNESGetIterationNumber(_snes, &its);
   SNESGetLinearSolveIterations(_snes, &lits);
   report.iterations = its;
-  report.linear_iterations = lits;
+  report.linear_iterations = _cell_unknowns.empty() ? lits : _inner_iterations - inner_before;
   PetscReal* history;
   PetscInt n;
   SNESGetConvergenceHistory(_snes, &history, nullptr, &n);
@@ -344,6 +438,246 @@ NewtonReport NonlinearSolver::solve()
   report.kernel = _last_kernel;
   report.non_finite = _non_finite;
   return report;
+}
+
+// ---------------------------------------------------------------------------
+// Three-field F-bar: the SNES vector is [u part | cells of part 0 | ...]
+// ---------------------------------------------------------------------------
+
+void NonlinearSolver::create_cell_unknowns()
+{
+  for (MuscleProblem* part : _parts)
+  {
+    part->hold_fbar_theta(true);
+    _cell_unknowns.push_back(std::make_unique<FbarCellUnknowns>(*part, _bcs));
+  }
+  MPI_Comm comm = _problem.mesh()->comm();
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  for (const auto& cells : _cell_unknowns)
+    n += cells->size();
+  VecCreateMPI(comm, n, PETSC_DETERMINE, &_x_ext);
+  MatCreateShell(comm, n, n, PETSC_DETERMINE, PETSC_DETERMINE, this, &_J_ext);
+  MatShellSetOperation(_J_ext, MATOP_MULT, (void (*)(void))extended_multiply);
+  for (Vec* v : {&_rhs, &_sol, &_tmp})
+    VecDuplicate(_x, v);
+  KSPCreate(comm, &_inner);
+  if (_constraint)
+  {
+    // P^T A P needs an assembled A for its symbolic phase
+    _problem.u()->x()->scatter_fwd();
+    for (auto& cells : _cell_unknowns)
+      cells->initialise();
+    assemble_three_field_jacobian();
+  }
+}
+
+NonlinearSolver::Blocks NonlinearSolver::blocks(double* array) const
+{
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  Blocks b{std::span<double>(array, n), {}};
+  for (const auto& cells : _cell_unknowns)
+  {
+    b.cells.emplace_back(array + n, cells->size());
+    n += cells->size();
+  }
+  return b;
+}
+
+void NonlinearSolver::to_full(Vec du)
+{
+  if (_constraint)
+    _constraint->prolong(du, _work);
+  else
+  {
+    const PetscScalar* a;
+    VecGetArrayRead(du, &a);
+    PetscInt n;
+    VecGetLocalSize(du, &n);
+    std::copy(a, a + n, _work.mutable_array().begin());
+    VecRestoreArrayRead(du, &a);
+    _work.scatter_fwd();
+  }
+}
+
+void NonlinearSolver::add_restricted(const la::Vector<double>& w, Vec x)
+{
+  PetscInt n;
+  VecGetLocalSize(x, &n);
+  if (_constraint)
+  {
+    Vec wv;
+    const auto map = w.map();
+    VecCreateMPIWithArray(map->comm(), 1, w.bs() * map->size_local(), PETSC_DETERMINE,
+                          w.array().data(), &wv);
+    MatMultTransposeAdd(_constraint->T(), wv, x, x);
+    VecDestroy(&wv);
+  }
+  else
+  {
+    PetscScalar* a;
+    VecGetArray(x, &a);
+    for (PetscInt i = 0; i < n; ++i)
+      a[i] += w.array()[i];
+    VecRestoreArray(x, &a);
+  }
+}
+
+void NonlinearSolver::set_extended_state(Vec x_ext)
+{
+  const PetscScalar* a;
+  VecGetArrayRead(x_ext, &a);
+  Blocks b = blocks(const_cast<double*>(a));
+  PetscScalar* xu;
+  VecGetArray(_tmp, &xu);
+  std::copy(b.u.begin(), b.u.end(), xu);
+  VecRestoreArray(_tmp, &xu);
+  for (std::size_t i = 0; i < _cell_unknowns.size(); ++i)
+    _cell_unknowns[i]->set(b.cells[i]);
+  VecRestoreArrayRead(x_ext, &a);
+  set_state(_tmp);
+}
+
+void NonlinearSolver::extended_residual(Vec F_ext)
+{
+  std::span<double> b = _b.mutable_array();
+  std::fill(b.begin(), b.end(), 0.0);
+  PetscScalar* f;
+  VecGetArray(F_ext, &f);
+  Blocks fb = blocks(f);
+  double violation = 0;
+  for (std::size_t i = 0; i < _cell_unknowns.size(); ++i)
+  {
+    const double v = _cell_unknowns[i]->residual(b, fb.cells[i]);
+    violation = std::isnan(v) ? std::numeric_limits<double>::infinity()
+                              : std::max(violation, v);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &violation, 1, MPI_DOUBLE, MPI_MAX, _problem.mesh()->comm());
+  _constraint_violation = std::isinf(violation) ? std::numeric_limits<double>::quiet_NaN()
+                                                : violation;
+  // no lifting: the Newton matrix keeps the Dirichlet columns (FbarCellUnknowns)
+  std::span<const double> u = _problem.u()->x()->array();
+  _b.scatter_rev(std::plus<double>());
+  fem::set_bc<double>(b, _bcs, u, -1.0);
+  if (_constraint)
+  {
+    MatMultTranspose(_constraint->T(), _F_full, _tmp);
+    const PetscScalar* t;
+    VecGetArrayRead(_tmp, &t);
+    std::copy(t, t + fb.u.size(), fb.u.begin());
+    VecRestoreArrayRead(_tmp, &t);
+  }
+  else
+    std::copy(b.begin(), b.begin() + fb.u.size(), fb.u.begin());
+  VecRestoreArray(F_ext, &f);
+}
+
+void NonlinearSolver::assemble_three_field_jacobian()
+{
+  MatZeroEntries(_A);
+  for (auto& cells : _cell_unknowns)
+    cells->jacobian(_A);
+  MatAssemblyBegin(_A, MAT_FLUSH_ASSEMBLY);
+  MatAssemblyEnd(_A, MAT_FLUSH_ASSEMBLY);
+  fem::set_diagonal<double>(la::petsc::Matrix::set_fn(_A, INSERT_VALUES), *_problem.V(),
+                            _bcs);
+  MatAssemblyBegin(_A, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_A, MAT_FINAL_ASSEMBLY);
+  MatNorm(_A, NORM_INFINITY, &_matrix_norm);
+  if (!std::isfinite(_matrix_norm))
+    return;
+  Mat K = _A;
+  if (_constraint)
+  {
+    MatPtAP(_A, _constraint->T(), _A_red ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX,
+            PETSC_DEFAULT, &_A_red);
+    K = _A_red;
+  }
+  KSPSetOperators(_inner, K, K);
+}
+
+PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
+{
+  NonlinearSolver* self;
+  PCShellGetContext(pc, &self);
+  const PetscScalar* bb;
+  VecGetArrayRead(b_ext, &bb);
+  Blocks B = self->blocks(const_cast<double*>(bb));
+  // K du = b_u + the cells' condensed terms
+  std::span<double> w = self->_work.mutable_array();
+  std::fill(w.begin(), w.end(), 0.0);
+  for (std::size_t i = 0; i < self->_cell_unknowns.size(); ++i)
+    self->_cell_unknowns[i]->condense(B.cells[i], w);
+  self->_work.scatter_rev(std::plus<double>());
+  PetscScalar* r;
+  VecGetArray(self->_rhs, &r);
+  std::copy(B.u.begin(), B.u.end(), r);
+  VecRestoreArray(self->_rhs, &r);
+  self->add_restricted(self->_work, self->_rhs);
+  // a failing inner solve (or a PETSc error in it) fails this linear solve, so
+  // SNES cuts the step: never a direction from garbage
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  const PetscErrorCode error = KSPSolve(self->_inner, self->_rhs, self->_sol);
+  PetscPopErrorHandler();
+  PetscInt its = 0;
+  KSPGetIterationNumber(self->_inner, &its);
+  self->_inner_iterations += its;
+  KSPConvergedReason reason = KSP_DIVERGED_PC_FAILED;
+  if (!error)
+    KSPGetConvergedReason(self->_inner, &reason);
+  if (reason < 0)
+  {
+    PCSetFailedReason(pc, PC_SUBPC_ERROR);
+    VecSet(y_ext, 0.0);
+    VecRestoreArrayRead(b_ext, &bb);
+    return 0;
+  }
+  // dtheta, dp from du
+  self->to_full(self->_sol);
+  PetscScalar* yy;
+  VecGetArray(y_ext, &yy);
+  Blocks Y = self->blocks(yy);
+  const PetscScalar* du;
+  VecGetArrayRead(self->_sol, &du);
+  std::copy(du, du + Y.u.size(), Y.u.begin());
+  VecRestoreArrayRead(self->_sol, &du);
+  for (std::size_t i = 0; i < self->_cell_unknowns.size(); ++i)
+    self->_cell_unknowns[i]->recover(self->_work.array(), B.cells[i], Y.cells[i]);
+  VecRestoreArray(y_ext, &yy);
+  VecRestoreArrayRead(b_ext, &bb);
+  return 0;
+}
+
+PetscErrorCode NonlinearSolver::extended_multiply(Mat J, Vec v, Vec y)
+{
+  NonlinearSolver* self;
+  MatShellGetContext(J, &self);
+  const PetscScalar* vv;
+  VecGetArrayRead(v, &vv);
+  Blocks V = self->blocks(const_cast<double*>(vv));
+  PetscScalar* t;
+  VecGetArray(self->_tmp, &t);
+  std::copy(V.u.begin(), V.u.end(), t);
+  VecRestoreArray(self->_tmp, &t);
+  MatMult(self->_constraint ? self->_A_red : self->_A, self->_tmp, self->_sol);
+  self->to_full(self->_tmp);
+  std::span<double> w2 = self->_work2.mutable_array();
+  std::fill(w2.begin(), w2.end(), 0.0);
+  PetscScalar* yy;
+  VecGetArray(y, &yy);
+  Blocks Y = self->blocks(yy);
+  for (std::size_t i = 0; i < self->_cell_unknowns.size(); ++i)
+    self->_cell_unknowns[i]->multiply(self->_work.array(), V.cells[i], w2, Y.cells[i]);
+  self->_work2.scatter_rev(std::plus<double>());
+  self->add_restricted(self->_work2, self->_sol);
+  const PetscScalar* s;
+  VecGetArrayRead(self->_sol, &s);
+  std::copy(s, s + Y.u.size(), Y.u.begin());
+  VecRestoreArrayRead(self->_sol, &s);
+  VecRestoreArray(y, &yy);
+  VecRestoreArrayRead(v, &vv);
+  return 0;
 }
 
 } // namespace muscle

@@ -12,6 +12,7 @@
 namespace muscle
 {
 class UniformDisplacementConstraint;
+class FbarCellUnknowns;
 
 /// Newton settings; PETSc command-line options (-snes_*, -ksp_*, -pc_*)
 /// override them.
@@ -23,6 +24,15 @@ struct NewtonOptions
   /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG) or "gmres-gamg" (with the rigid-body
   /// near-null space)
   std::string linear_solver = "lu";
+  /// Relative tolerance of the iterative linear solvers (Newton converges
+  /// quadratically down to about this reduction per step).
+  double linear_rtol = 1e-10;
+  /// F-bar elements: Newton on (u, theta, p) with the cell unknowns theta, p
+  /// eliminated per cell (FbarCellUnknowns; robust under the stiff penalty),
+  /// or -- false -- on u alone with theta = J0(u).  Same converged states.
+  bool fbar_cell_unknowns = true;
+  /// Largest constraint violation |J0(u) - theta| accepted at convergence.
+  double fbar_constraint_tolerance = 1e-10;
   /// PETSc line search: "bt" (residual-norm backtracking) keeps full steps near
   /// the solution (quadratic convergence, tested); "cp" minimises along the
   /// direction with the residual as the energy gradient and is the better
@@ -100,6 +110,25 @@ private:
                                          SNESConvergedReason* reason, void* ctx);
   void set_state(Vec x);
 
+  // Three-field F-bar (cell unknowns next to u in the SNES vector)
+  void create_cell_unknowns();
+  void set_extended_state(Vec x_ext);
+  void extended_residual(Vec F_ext);
+  void assemble_three_field_jacobian();
+  static PetscErrorCode condensed_solve(PC pc, Vec b, Vec y);
+  static PetscErrorCode extended_multiply(Mat J, Vec v, Vec y);
+  /// y_cells blocks and the displacement part of an extended vector
+  struct Blocks
+  {
+    std::span<double> u;
+    std::vector<std::span<double>> cells;
+  };
+  Blocks blocks(double* array) const;
+  /// du (reduced or full owned) -> _work (full, ghosts updated)
+  void to_full(Vec du);
+  /// x_red += T^T w_owned (or x += w_owned)
+  void add_restricted(const dolfinx::la::Vector<double>& w, Vec x);
+
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh
   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> _bcs;
@@ -119,6 +148,15 @@ private:
   bool _non_finite = false;
   bool _stagnated = false;
   std::vector<double> _norms; ///< residual norms of the current solve
+
+  std::vector<std::unique_ptr<FbarCellUnknowns>> _cell_unknowns;
+  Vec _x_ext = nullptr;     ///< three-field: SNES iterate (u part, then every part's cells)
+  Mat _J_ext = nullptr;     ///< three-field: the extended Jacobian (shell)
+  KSP _inner = nullptr;     ///< three-field: the linear solver of the condensed system
+  Vec _rhs = nullptr, _sol = nullptr, _tmp = nullptr; ///< displacement-part work vectors
+  dolfinx::la::Vector<double> _work, _work2; ///< full displacement, with ghosts
+  double _constraint_violation = 0;
+  long _inner_iterations = 0;
 };
 
 } // namespace muscle

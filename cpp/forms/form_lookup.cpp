@@ -21,7 +21,7 @@ int default_quadrature_degree(const std::string& cell, int degree)
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
                                  int quadrature_degree,
-                                 int volumetric_quadrature_degree)
+                                 int volumetric_quadrature_degree, bool fbar)
 {
   if (quadrature_degree < 0)
     quadrature_degree = default_quadrature_degree(cell, degree);
@@ -33,6 +33,8 @@ const FeVariant& find_fe_variant(const std::string& model,
                     + " quadrature " + std::to_string(v.quadrature_degree);
     if (v.volumetric_quadrature_degree != v.quadrature_degree)
       s += " (volumetric " + std::to_string(v.volumetric_quadrature_degree) + ")";
+    if (v.fbar)
+      s += " F-bar";
     return s;
   };
   std::vector<std::string> available;
@@ -40,7 +42,8 @@ const FeVariant& find_fe_variant(const std::string& model,
   {
     if (model == v.model and cell == v.cell and degree == v.degree
         and quadrature_degree == v.quadrature_degree
-        and volumetric_quadrature_degree == v.volumetric_quadrature_degree)
+        and volumetric_quadrature_degree == v.volumetric_quadrature_degree
+        and fbar == (v.fbar != nullptr))
     {
       return v;
     }
@@ -51,13 +54,19 @@ const FeVariant& find_fe_variant(const std::string& model,
   if (volumetric_quadrature_degree != quadrature_degree)
     wanted += " and volumetric quadrature degree "
               + std::to_string(volumetric_quadrature_degree);
+  if (fbar)
+    wanted += " as F-bar element";
   std::string why;
   const bool ble = model.rfind("ble", 0) == 0;
-  if (volumetric_quadrature_degree != quadrature_degree and !ble)
+  if (fbar)
+    why = " F-bar is compiled for hexahedra of degree 1 with quadrature degree 2 (Q2 does "
+          "not lock; on tetrahedra the centre value is the whole P1 field).";
+  else if (volumetric_quadrature_degree != quadrature_degree and !ble)
     why = " The anti-locking element is compiled for BLE only: WKM, GIANT and COMBI need "
           "their coupled penalty at every quadrature point (on one point their volume "
           "modes within a cell are unstable, so compiling it would not help; "
-          "BENCHMARKS.md).";
+          "BENCHMARKS.md). Their locking-free Q1 is the F-bar element (fusiform --fbar, "
+          "scene element.fbar: true).";
   else if (volumetric_quadrature_degree != quadrature_degree)
     why = " The standard build has BLE's anti-locking element on hexahedra of degree 1 "
           "with quadrature degree 2 and volumetric degree 1.";
@@ -65,7 +74,7 @@ const FeVariant& find_fe_variant(const std::string& model,
                    + " degree " + std::to_string(degree) + " with " + wanted
                    + "; compiled: " + join(available, "; ") + "." + why
                    + " Add a variant with cmake -DMUSCLE_EXTRA_VARIANTS="
-                     "MODEL:CELL:DEGREE:QDEG[:VQDEG] (cell hex or tet) and rebuild.");
+                     "MODEL:CELL:DEGREE:QDEG[:VQDEG|:fbar] (cell hex or tet) and rebuild.");
 }
 
 const MaterialPointVariant& find_material_point_variant(const std::string& model)

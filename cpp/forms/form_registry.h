@@ -8,6 +8,18 @@
 namespace muscle::forms
 {
 
+/// The F-bar hexahedron's own kernels (forms/muscleforms/fbar.py): a mixed
+/// element on (u, J0) whose J0 = det F at the centre C++ eliminates per cell.
+struct FbarForms
+{
+  ufcx_form* residual;   ///< (R_u, r_0) of the mixed element
+  ufcx_form* jacobian;   ///< 25 x 25 on (u, J0)
+  ufcx_form* centre;     ///< functional: J0 of the cell
+  ufcx_form* gradient;   ///< g = dJ0/du
+  ufcx_form* hessian;    ///< G = d2J0/du2
+  ufcx_expression* centre_dilatation; ///< J0 at the centre point, for the DG0 field
+};
+
 /// Finite-element kernels of one material model on one element type.
 struct FeVariant
 {
@@ -28,6 +40,8 @@ struct FeVariant
   ufcx_function_space* (*function_space)(const char*); ///< spaces by coefficient name
   ufcx_expression* fibre_stretch; ///< at quadrature points (kernel input), or null
   ufcx_expression* post; ///< [lambda, sigma_m, von Mises, J] at quadrature points
+  /// F-bar hexahedron, else null; then residual/jacobian only carry the cell data
+  const FbarForms* fbar;
 };
 
 /// Energy, stress and tangent of a model at a cell-wise constant displacement
@@ -62,11 +76,12 @@ int default_quadrature_degree(const std::string& cell, int degree);
 
 /// Look up a compiled variant; InputError listing what is available otherwise.
 /// quadrature_degree < 0 selects the default for the element,
-/// volumetric_quadrature_degree < 0 the same rule as the rest of the energy.
+/// volumetric_quadrature_degree < 0 the same rule as the rest of the energy;
+/// `fbar` selects the F-bar hexahedron.
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
                                  int quadrature_degree = -1,
-                                 int volumetric_quadrature_degree = -1);
+                                 int volumetric_quadrature_degree = -1, bool fbar = false);
 const MaterialPointVariant& find_material_point_variant(const std::string& model);
 
 } // namespace muscle::forms

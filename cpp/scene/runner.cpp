@@ -318,8 +318,9 @@ void run_scene(const Scene& scene, const RunOptions& options)
     try
     {
       problems.push_back(std::make_unique<MuscleProblem>(
-          mesh, part.parameters, Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree,
-                                         scene.mesh.volumetric_quadrature_degree},
+          mesh, part.parameters,
+          Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree,
+                         scene.mesh.volumetric_quadrature_degree, scene.mesh.fbar},
           !part.active, region, p > 0 ? problems[0]->u() : nullptr));
     }
     catch (const InputError& e)
@@ -530,7 +531,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
     assembly["scene"] = time_assembly(problem, options.measure_assembly);
     MuscleProblem plain(mesh, part.parameters,
                         {scene.mesh.degree, scene.mesh.quadrature_degree,
-                         scene.mesh.volumetric_quadrature_degree},
+                         scene.mesh.volumetric_quadrature_degree, scene.mesh.fbar},
                         true);
     assembly["plain_passive"] = time_assembly(plain, options.measure_assembly);
     problem.set_time_factor(0);

@@ -133,6 +133,7 @@ struct MeshSpec
   int degree = 1;
   int quadrature_degree = -1;
   int volumetric_quadrature_degree = -1; ///< 1 on Q1: anti-locking
+  bool fbar = false;                     ///< F-bar hexahedra (Q1)
   SceneLocation where;
 };
 

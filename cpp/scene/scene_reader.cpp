@@ -613,11 +613,18 @@ Scene parse_scene(const std::string& text, const std::string& name,
   const Entry el = top["element"];
   if (el.defined())
   {
-    el.require_map({"degree", "quadrature_degree", "volumetric_quadrature_degree"});
+    el.require_map({"degree", "quadrature_degree", "volumetric_quadrature_degree", "fbar"});
     scene.mesh.degree = el["degree"].integer(1, 1, 2);
     scene.mesh.quadrature_degree = el["quadrature_degree"].integer(-1, 1, 12);
     scene.mesh.volumetric_quadrature_degree
         = el["volumetric_quadrature_degree"].integer(-1, 1, 12);
+    scene.mesh.fbar = el["fbar"].flag(false);
+    if (scene.mesh.fbar and scene.mesh.degree != 1)
+      el["fbar"].fail("the F-bar element is the locking-free Q1 hexahedron: it needs degree 1 "
+                      "(Q2 does not lock)");
+    if (scene.mesh.fbar and scene.mesh.volumetric_quadrature_degree >= 0)
+      el["fbar"].fail("F-bar and a volumetric quadrature degree of its own are two anti-locking "
+                      "elements; choose one");
   }
 
   // parts
@@ -643,7 +650,7 @@ Scene parse_scene(const std::string& text, const std::string& name,
           "compiled for BLE only, part '" + scene.parts.back().name + "' is "
           + to_string(scene.parts.back().parameters.model())
           + ": WKM, GIANT and COMBI need their coupled penalty at every point; use "
-            "degree 2 (docs/scenes.md)");
+            "fbar: true or degree 2 (docs/scenes.md)");
   }
 
   // boundary conditions

@@ -54,9 +54,11 @@ struct Settings
   Discretisation element;
   double dt = -1, t_end = 0.15, root_tolerance = default_root_tolerance;
   std::vector<std::string> assignments, mesh_numbers;
-  bool quiet = false, no_fields = false, condition_number = false, anti_locking = false;
+  bool quiet = false, no_fields = false, condition_number = false, anti_locking = false,
+       fbar = false;
   NewtonOptions newton;
   int max_cutbacks = 8;
+  double first_step = 0, growth_factor = 1.5;
 };
 
 Settings parse(std::vector<std::string> args)
@@ -80,6 +82,12 @@ Settings parse(std::vector<std::string> args)
   app.add_flag("--anti-locking", s.anti_locking,
                "BLE on Q1 hexahedra: stiff volumetric part on one point per cell "
                "(selective reduced integration)");
+  app.add_flag("--fbar", s.fbar,
+               "F-bar hexahedra (Q1): the paper's locking-free element, every model");
+  bool displacement_newton = false;
+  app.add_flag("--fbar-displacement-newton", displacement_newton,
+               "F-bar: Newton on u alone (theta = J0(u)) instead of (u, theta, p); same "
+               "solution, more iterations (BENCHMARKS.md)");
   app.add_option("--root-tolerance", s.root_tolerance,
                  "WKM/GIANT: relative step tolerance of the activation root finder "
                  "(default round-off; looser saves no time, BENCHMARKS.md)")
@@ -99,10 +107,17 @@ Settings parse(std::vector<std::string> args)
       ->capture_default_str();
   app.add_option("--linear-solver", s.newton.linear_solver,
                  "lu (MUMPS), gmres-hypre or gmres-gamg")->capture_default_str();
+  app.add_option("--linear-rtol", s.newton.linear_rtol,
+                 "relative tolerance of the iterative linear solvers")->capture_default_str();
   app.add_option("--line-search", s.newton.line_search,
                  "PETSc line search: cp (energy-like, default here) or bt, basic, l2")
       ->capture_default_str();
   app.add_option("--max-cutbacks", s.max_cutbacks, "halvings of a failing step")
+      ->capture_default_str();
+  app.add_option("--first-step", s.first_step,
+                 "first sub-step [s] (default --dt); steps then grow by --growth-factor "
+                 "after two successes, up to --dt");
+  app.add_option("--growth-factor", s.growth_factor, "sub-step growth after two successes")
       ->capture_default_str();
   app.add_option("--stagnation-window", s.newton.stagnation_window,
                  "cut the step when the residual fell by less than 0.1 % over this many Newton "
@@ -113,6 +128,7 @@ Settings parse(std::vector<std::string> args)
                "estimate the condition number of the last Newton matrix (SLEPc)");
   if (!parse_command_line(app, std::move(args)))
     std::exit(0);
+  s.newton.fbar_cell_unknowns = !displacement_newton;
   if (s.load != "isometric" and s.load != "free")
     throw InputError("--case '" + s.load + "': allowed: isometric, free");
   if (s.refinement < 1 or s.refinement > 8)
@@ -131,6 +147,14 @@ Settings parse(std::vector<std::string> args)
                        "lock; BENCHMARKS.md)");
     s.element.volumetric_quadrature_degree = 1;
   }
+  if (s.fbar)
+  {
+    if (s.cell != "hex" or s.degree != 1 or s.anti_locking)
+      throw InputError("--fbar: only for --cell hex --degree 1, without --anti-locking "
+                       "(Q2 does not lock; on tetrahedra the centre value is the whole P1 "
+                       "field)");
+    s.element.fbar = true;
+  }
   if (!(s.root_tolerance >= 1e-16 and s.root_tolerance < 1))
     throw InputError("--root-tolerance " + std::to_string(s.root_tolerance)
                      + ": allowed from 1e-16 (round-off; smaller never stops) to below 1");
@@ -138,6 +162,8 @@ Settings parse(std::vector<std::string> args)
     s.dt = uses_twitch_train(parse_model(s.model)) ? 0.001 : 0.005;
   if (!(s.dt > 0) or !(s.t_end > 0))
     throw InputError("--dt and --t-end must be positive");
+  if (!(s.first_step >= 0) or !(s.growth_factor >= 1))
+    throw InputError("--first-step must be positive (0: --dt) and --growth-factor at least 1");
   return s;
 }
 
@@ -233,6 +259,8 @@ int main(int argc, char** argv)
     stepping.t_end = s.t_end;
     stepping.dt = s.dt;
     stepping.max_cutbacks = s.max_cutbacks;
+    stepping.first_substep = s.first_step;
+    stepping.growth_factor = s.growth_factor;
     QuasiStaticStepper stepper(problem, solver,
                                [&](double t) { problem.set_time_factor(time_factor(parameters, t)); },
                                stepping);
@@ -314,6 +342,7 @@ int main(int argc, char** argv)
           {"model", s.model}, {"case", s.load}, {"refinement", s.refinement},
           {"cell", s.cell}, {"degree", s.degree},
           {"quadrature_degree", problem.quadrature_degree()}, {"anti_locking", s.anti_locking},
+          {"fbar", s.fbar},
           {"root_tolerance", s.root_tolerance},
           {"dt", s.dt}, {"t_end", s.t_end},
           {"cells", gm.num_cells}, {"nodes", gm.num_nodes},

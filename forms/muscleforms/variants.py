@@ -35,9 +35,12 @@ REDUCED_VOLUMETRIC = {("hex", 1): 1}
 ANTI_LOCKING_MODELS = ("ble", "ble_passive")
 
 
-def variant_name(model, cell, degree, qdeg, vqdeg=None):
-    """vqdeg: quadrature degree of the stiff volumetric part when it differs from qdeg."""
+def variant_name(model, cell, degree, qdeg, vqdeg=None, fbar=False):
+    """vqdeg: quadrature degree of the stiff volumetric part when it differs from qdeg;
+    fbar: the F-bar element (fbar.py)."""
     name = f"{model}_{cell}{degree}_q{qdeg}"
+    if fbar:
+        return f"{name}_fbar"
     return name if vqdeg in (None, qdeg) else f"{name}_v{vqdeg}"
 
 

@@ -1,0 +1,129 @@
+"""F-bar hexahedra (de Souza Neto et al. 1996; the element of the paper's fusiform study).
+
+The energy is evaluated at F_bar = (J0/J)^(1/3) F, with J0 = det F at the cell centre:
+det F_bar = J0 at every quadrature point, so a Q1 cell carries one volume constraint
+instead of eight and does not lock.  Because J0 depends on the cell's displacement
+through one point, the element is written with J0 as an extra cell unknown and C++
+eliminates it cell by cell (cpp/fem/fbar_element.cpp), which keeps the tangent exact:
+
+    R = R_u + r_0 g,
+    K = K_uu + K_u0 g^T + g K_0u + K_00 g g^T + r_0 G,
+
+where (R_u, r_0) and the 25x25 [K_uu K_u0; K_0u K_00] come from one mixed kernel on
+(u, J0) ("fbar_residual", "fbar_jacobian"), and g = dJ0/du, G = d2J0/du2 from kernels on
+the centre point ("fbar_gradient", "fbar_hessian", "fbar_centre").
+
+With J0 = theta kept as a cell unknown and its constraint J0(u) = theta enforced by
+a multiplier p (the three-field form, cpp/fem/fbar_unknowns.h), the same kernels give
+
+    R_u = R_u(u, theta) + p g,   R_theta = r_0 - p,   R_p = J0(u) - theta,
+
+whose Newton iteration keeps the penalty's argument theta linear in each step.
+
+Exported besides:
+  residual, jacobian   carriers: DOLFINx packs the cell data (u, theta = "fbar_J0",
+                       p = "fbar_pressure", fibre, activation scale, omega_a Taylor data,
+                       constants) through them; their own kernels are never called.
+  fibre_stretch, post  expressions with F_bar, reading J0 from the DG0 field "fbar_J0".
+"""
+
+import ufl
+from ffcx.element_interface import create_quadrature
+from ufl import (Coefficient, Constant, FiniteElement, Identity, MixedElement, TestFunction,
+                 TrialFunction, VectorElement, as_vector, derivative, det, dx, grad, inner,
+                 variable)
+
+from .activation import TAYLOR_COEFFICIENTS, TAYLOR_ORDER
+from .kinematics import fibre_cauchy_stress, von_mises_stress
+from .variants import ACTIVE_MODELS, CELLS, _constants, _Names, _stress_and_energy
+
+# F-bar exists for Q1 hexahedra: Q2 does not lock, and on tetrahedra a centre value is
+# the whole P1 field.
+FBAR_ELEMENTS = {("hex", 1)}
+FBAR_MODELS = ("ble", "wkm", "giant", "combi", "ble_passive", "ehret_passive")
+
+
+def fbar_displacement_gradient(H, J0):
+    """F_bar - I for F = I + H.
+
+    s - 1 = (J0/J)^(1/3) - 1 is formed from J0 - J, so the reference state (H = 0,
+    J0 = 1) gives H_bar = H to the bit (the BLE passive switch at fibre stretch 1).
+    """
+    I = Identity(3)
+    J = det(I + H)
+    ratio_m1 = (J0 - J) / J
+    s = (1 + ratio_m1)**(1.0 / 3.0)
+    s_m1 = ratio_m1 / (s * s + s + 1)
+    return H + s_m1 * (I + H)
+
+
+def _centre_measure():
+    return dx(metadata={"quadrature_degree": 1})
+
+
+def build_fbar_variant(model, cell, degree, qdeg):
+    if (cell, degree) not in FBAR_ELEMENTS:
+        raise ValueError(f"F-bar is for Q1 hexahedra, not {cell} degree {degree}")
+    ucell = getattr(ufl, CELLS[cell])
+    names = _Names()
+    V = VectorElement("Lagrange", ucell, degree)
+    Q0 = FiniteElement("DG", ucell, 0)
+    W = MixedElement([V, Q0])
+
+    u = names.name(Coefficient(V), "u")
+    J0_field = names.name(Coefficient(Q0), "fbar_J0")
+    pressure = names.name(Coefficient(Q0), "fbar_pressure")
+    state = names.name(Coefficient(W), "fbar_state")
+    u_s, J0_s = ufl.split(state)
+    fibre = names.name(Coefficient(VectorElement("DG", ucell, 0)), "fibre")
+    p = _constants(ucell, model, names)
+    level = None
+    if model in ACTIVE_MODELS:
+        scale = names.name(Coefficient(Q0), "activation_scale")
+        time_factor = names.name(Constant(ucell), "time_factor")
+        level = time_factor * scale
+    taylor = None
+    if model in TAYLOR_ORDER:
+        Q = FiniteElement("Quadrature", ucell, qdeg, quad_scheme="default")
+        taylor = {c: names.name(Coefficient(Q), c)
+                  for c in TAYLOR_COEFFICIENTS[:TAYLOR_ORDER[model] + 2]}
+    measure = dx(metadata={"quadrature_degree": qdeg})
+
+    # the mixed element on (u, J0)
+    H_bar = fbar_displacement_gradient(grad(u_s), J0_s)
+    P, _, _, _, _ = _stress_and_energy(model, lambda: variable(H_bar), fibre, p, level, taylor)
+    test, trial = TestFunction(W), TrialFunction(W)
+    residual = inner(P, derivative(H_bar, state, test)) * measure
+    names.export(residual, "fbar_residual")
+    names.export(derivative(residual, state, trial), "fbar_jacobian")
+
+    # J0 = det F at the centre: the one-point rule over |det dX/dxi| gives the point value
+    v, du = TestFunction(V), TrialFunction(V)
+    J_u = det(Identity(3) + grad(u))
+    centre = J_u / abs(ufl.JacobianDeterminant(ucell)) * _centre_measure()
+    names.export(centre, "fbar_centre")
+    gradient = derivative(centre, u, v)
+    names.export(gradient, "fbar_gradient")
+    names.export(derivative(gradient, u, du), "fbar_hessian")
+
+    # carriers: every coefficient and constant the mixed kernels read
+    data = sum((f[i] for f in (u, fibre) for i in range(3)), 1.0 + J0_field + pressure)
+    for c in ([scale] if level is not None else []) + list((taylor or {}).values()):
+        data = data + c
+    for c in list(p.values()) + ([time_factor] if level is not None else []):
+        data = data + c
+    names.export(data * inner(u, v) * measure, "residual")
+    names.export(data * inner(du, v) * measure, "jacobian")
+    names.export(J_u * measure, "volume")
+
+    points, _ = create_quadrature(CELLS[cell], qdeg, "default")
+    H_post = fbar_displacement_gradient(grad(u), J0_field)
+    P_post, _, kin, _, _ = _stress_and_energy(model, lambda: variable(H_post), fibre, p, level,
+                                              taylor)
+    if model in TAYLOR_ORDER:
+        names.export((kin.fibre_stretch, points), "fibre_stretch")
+    post = as_vector([kin.fibre_stretch, fibre_cauchy_stress(kin, P_post),
+                      von_mises_stress(kin, P_post), J_u])
+    names.export((post, points), "post")
+    names.export((J_u, [[0.5, 0.5, 0.5]]), "fbar_centre_dilatation")
+    return names

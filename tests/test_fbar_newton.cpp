@@ -1,0 +1,170 @@
+// The three-field Newton of the F-bar element (theta, p eliminated per cell)
+// against the displacement Newton on the same element: the converged states
+// must agree (they solve the same discrete equations), the three-field
+// iteration must converge quadratically -- which fails if the condensation,
+// the recovery of dtheta, dp or the extended Jacobian is off -- and it must
+// need fewer iterations under the preset penalty, the reason it exists.
+#include <fem/boundary.h>
+#include <fem/muscle_problem.h>
+#include <fem/nonlinear_solver.h>
+#include <fem/uniform_constraint.h>
+#include <material/parameters.h>
+
+#include <cmath>
+#include <cstdio>
+#include <dolfinx/mesh/generation.h>
+#include <dolfinx/mesh/utils.h>
+#include <gtest/gtest.h>
+#include <xtensor/xbuilder.hpp>
+
+using namespace muscle;
+using namespace dolfinx;
+
+namespace
+{
+struct Outcome
+{
+  std::vector<double> u;
+  NewtonReport report; ///< of the last step
+  int total_iterations = 0;
+};
+
+/// A block clamped at z = 0, its top (z = 1.5) either pulled up (prescribed
+/// axial displacement) or free to move as one (the uniform-axial constraint,
+/// the fusiform "free" case); fibres along z, activated -- in `steps` equal
+/// load steps (the displacement Newton needs several under the preset penalty).
+Outcome solve(Model model, bool three_field, const std::string& line_search, bool constrained,
+              int steps)
+{
+  auto mesh = std::make_shared<mesh::Mesh>(mesh::create_box(
+      MPI_COMM_WORLD, {{{0, 0, 0}, {1, 1, 1.5}}}, {2, 2, 3}, mesh::CellType::hexahedron,
+      mesh::GhostMode::shared_facet));
+  Discretisation d;
+  d.fbar = true;
+  MuscleProblem problem(mesh, ParameterSet(model), d);
+  problem.set_fibre({0.1, 0.0, 1.0});
+
+  const int fdim = 2;
+  mesh->topology_mutable().create_connectivity(fdim, 3);
+  auto on = [&](double z)
+  {
+    return mesh::locate_entities_boundary(
+        *mesh, fdim,
+        [z](const xt::xtensor<double, 2>& x) -> xt::xtensor<bool, 1>
+        {
+          xt::xtensor<bool, 1> marked = xt::zeros<bool>({x.shape(1)});
+          for (std::size_t i = 0; i < x.shape(1); ++i)
+            marked(i) = std::abs(x(2, i) - z) < 1e-10;
+          return marked;
+        });
+  };
+  auto V = problem.V();
+  std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs = {clamp(V, on(0.0))};
+  std::shared_ptr<UniformDisplacementConstraint> constraint;
+  auto lift = std::make_shared<fem::Constant<double>>(0.0);
+  auto zero = std::make_shared<fem::Constant<double>>(0.0);
+  if (constrained)
+  {
+    bcs.push_back(prescribe_component(V, on(1.5), 0, zero));
+    bcs.push_back(prescribe_component(V, on(1.5), 1, zero));
+    constraint = std::make_shared<UniformDisplacementConstraint>(
+        *V, component_dofs(*V, on(1.5), 2));
+  }
+  else
+    bcs.push_back(prescribe_component(V, on(1.5), 2, lift));
+
+  NewtonOptions options;
+  options.fbar_cell_unknowns = three_field;
+  options.line_search = line_search;
+  options.stagnation_window = 0;
+  options.max_iterations = 60;
+  NonlinearSolver solver(problem, bcs, constraint, options);
+  Outcome o;
+  int iterations = 0;
+  for (int k = 1; k <= steps; ++k)
+  {
+    problem.set_time_factor(double(k) / steps);
+    lift->value = {0.05 * k / steps};
+    o.report = solver.solve();
+    iterations += o.report.iterations;
+    if (!o.report.converged)
+      break;
+  }
+  o.total_iterations = iterations;
+  o.u.assign(problem.u()->x()->array().begin(), problem.u()->x()->array().end());
+  return o;
+}
+
+double max_abs_diff(const std::vector<double>& a, const std::vector<double>& b)
+{
+  double d = 0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    d = std::max(d, std::abs(a[i] - b[i]));
+  return d;
+}
+
+double max_abs(const std::vector<double>& a)
+{
+  double d = 0;
+  for (double x : a)
+    d = std::max(d, std::abs(x));
+  return d;
+}
+
+/// Smallest ratio log(r_{k+1}) / log(r_k) over the steps with r_k < 1e-2 r_0 that
+/// end above round-off (1e-11 r_0 for the stiff penalty): 2 for quadratic convergence.
+double convergence_order(const std::vector<double>& r)
+{
+  double order = 10;
+  for (std::size_t k = 1; k + 1 < r.size(); ++k)
+  {
+    const double a = r[k] / r[0], b = r[k + 1] / r[0];
+    if (a < 1e-2 and b > 1e-11)
+      order = std::min(order, std::log(b) / std::log(a));
+  }
+  return order;
+}
+
+struct Case
+{
+  Model model;
+  bool constrained;
+  const char* line_search;
+};
+
+class FbarNewton : public ::testing::TestWithParam<Case>
+{
+};
+} // namespace
+
+TEST_P(FbarNewton, ConvergesQuadraticallyToTheDisplacementNewtonsState)
+{
+  const Case c = GetParam();
+  // the three-field Newton in one step, the displacement Newton in forty
+  const Outcome mixed = solve(c.model, true, c.line_search, c.constrained, 1);
+  const Outcome plain = solve(c.model, false, "cp", c.constrained, 40);
+  ASSERT_TRUE(mixed.report.converged) << mixed.report.reason;
+  ASSERT_TRUE(plain.report.converged) << plain.report.reason;
+  const double scale = max_abs(plain.u);
+  EXPECT_GT(scale, 1e-3);
+  EXPECT_LT(max_abs_diff(mixed.u, plain.u), 1e-8 * scale);
+  const double order = convergence_order(mixed.report.residual_norms);
+  EXPECT_GT(order, 1.7);
+  EXPECT_LT(mixed.total_iterations, plain.total_iterations);
+  std::printf("%s %s %s: %d Newton iterations in one step (displacement Newton: %d in forty), "
+              "order %.2f, |u - u_displacement| = %.1e |u|\n",
+              to_string(c.model).c_str(), c.constrained ? "free" : "pulled", c.line_search,
+              mixed.total_iterations, plain.total_iterations, order,
+              max_abs_diff(mixed.u, plain.u) / scale);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Models, FbarNewton,
+    ::testing::Values(Case{Model::combi, false, "cp"}, Case{Model::combi, true, "cp"},
+                      Case{Model::combi, false, "bt"}, Case{Model::giant, true, "cp"},
+                      Case{Model::wkm, false, "cp"}, Case{Model::ble, true, "bt"}),
+    [](const auto& info)
+    {
+      return to_string(info.param.model) + (info.param.constrained ? "_free_" : "_pulled_")
+             + info.param.line_search;
+    });
