@@ -106,8 +106,11 @@ class Records:
         os.replace(tmp, self.path)
 
 
-def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc=()):
-    name = f"{model}_{case}_{cell}{degree}_n{n}_dt{dt:g}_{solver}_np{np}"
+def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc=(),
+             fbar=False, rtol=None):
+    name = f"{model}_{case}_{cell}{degree}{'fbar' if fbar else ''}_n{n}_dt{dt:g}_{solver}_np{np}"
+    if rtol is not None:
+        name += f"_rtol{rtol:g}"
     for s in sets:
         name += "_" + s.replace("=", "")
     for p in petsc:
@@ -116,9 +119,11 @@ def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc
 
 
 def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, dt=0.05,
-             solver="lu", np=1, sets=(), petsc=(), timeout=None, group=None):
-    """One fusiform run (cached with --reuse); returns a flat record."""
-    name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc)
+             solver="lu", np=1, sets=(), petsc=(), timeout=None, group=None, fbar=False,
+             rtol=None):
+    """One fusiform run (cached with --reuse); returns a flat record.  fbar: the F-bar
+    hexahedron (three-field Newton); rtol: --linear-rtol of the iterative solvers."""
+    name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc, fbar, rtol)
     out = os.path.join(args.work, "runs", name)
     summary_path = os.path.join(out, "summary.json")
     record_path = os.path.join(out, "record.json")
@@ -143,13 +148,17 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
             print(f"  skip {name}: past the deadline", flush=True)
             return {"name": name, "skipped": "deadline", "completed": False, "model": model,
                     "case": case, "cell": cell, "degree": degree, "n": n, "dt": dt,
-                    "solver": solver, "ranks": np, "sets": list(sets),
-                    "element": element_name(cell, degree)}
+                    "solver": solver, "ranks": np, "sets": list(sets), "fbar": fbar,
+                    "element": element_name(cell, degree, fbar)}
         timeout = min(timeout or left, left)
     command = [os.path.join(args.build, "fusiform"), "--model", model, "--case", case,
                "--refinement", str(n), "--cell", cell, "--degree", str(degree),
                "--dt", repr(dt), "--linear-solver", solver, "--no-fields", "--quiet",
                "--out", out]
+    if fbar:
+        command.append("--fbar")
+    if rtol is not None:
+        command += ["--linear-rtol", repr(rtol)]
     for s in sets:
         command += ["--set", s]
     for p in petsc:
@@ -173,8 +182,11 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
     elapsed = time.time() - start
     after = loadavg()
     record = {"name": name, "model": model, "case": case, "cell": cell, "degree": degree,
-              "element": element_name(cell, degree), "n": n, "dt": dt, "solver": solver,
+              "element": element_name(cell, degree, fbar), "n": n, "dt": dt, "solver": solver,
               "ranks": np, "sets": list(sets), "petsc": list(petsc), "group": group,
+              "fbar": fbar, "linear_rtol": rtol,
+              # GAMG runs before this field existed had a dangling near-null space
+              "near_null_space_fixed": solver == "gmres-gamg",
               "command": " ".join(shlex.quote(c) for c in command[5:]),
               "elapsed": elapsed, "loadavg_before": before, "loadavg_after": after,
               "binary_mtime": binary_mtime(args),
@@ -246,7 +258,9 @@ def adopt(name, out, base):
         return None
     record = {"name": name, "model": summary["model"], "case": summary["case"],
               "cell": summary["cell"], "degree": summary["degree"],
-              "element": element_name(summary["cell"], summary["degree"]),
+              "element": element_name(summary["cell"], summary["degree"],
+                                      summary.get("fbar", False)),
+              "fbar": summary.get("fbar", False),
               "n": summary["refinement"], "dt": summary["dt"], **base,
               "elapsed": summary["wall_time"], "loadavg_before": loadavg(),
               "loadavg_after": loadavg(), "adopted": True}
@@ -267,8 +281,8 @@ def adopt(name, out, base):
     return record
 
 
-def element_name(cell, degree):
-    return {"hex": "Q", "tet": "P"}[cell] + str(degree)
+def element_name(cell, degree, fbar=False):
+    return {"hex": "Q", "tet": "P"}[cell] + str(degree) + ("F" if fbar else "")
 
 
 # ---------------------------------------------------------------------------
@@ -369,8 +383,8 @@ def collect(args):
     drivers writing records.json at once)."""
     import glob
     data = {"assembly": {}, "instructions": {}, "e2e": {}, "solvers": {}, "map": {},
-            "knobs": {}}
-    for element in ("Q1", "Q2", "P1", "P2"):
+            "knobs": {}, "fbar": {}}
+    for element in ("Q1", "Q2", "P1", "P2", "Q1F"):
         path = os.path.join(args.work, f"assembly_{element}_n{args.assembly_n}.json")
         if os.path.exists(path):
             with open(path) as f:
@@ -389,6 +403,14 @@ def collect(args):
         with open(path) as f:
             r = json.load(f)
         r.setdefault("petsc", [])
+        r.setdefault("fbar", False)
+        if r["fbar"] or r.get("group") == "fbar":
+            data["fbar"][r["name"]] = r
+            # a discretisation like the others on the map (LU, one rank)
+            if r["model"] == "combi" and r["solver"] == "lu" and r["ranks"] == 1 \
+                    and not r["petsc"]:
+                data["map"][r["name"]] = r
+            continue
         if r.get("group") == "knobs":
             data["knobs"][r["name"]] = r
             continue
@@ -407,6 +429,65 @@ def collect(args):
         with open(path) as f:
             data["experiments"] = {"fno_math_errno": json.load(f)}
     return data
+
+
+def fbar_runs(args):
+    """The F-bar hexahedron (three-field Newton): map points at the preset penalty (LU),
+    the penalty sweep, and the scaling study n = 1, 2, 4 at kappa = 100, where the
+    multigrid-preconditioned GMRES converges (BENCHMARKS.md: why not at kappa = 1000)."""
+    dt, soft = args.e2e_dt, ("kappa=100",)
+    amg = dict(rtol=1e-6, sets=soft)
+    runs = [dict(n=4, solver="gmres-gamg", np=2, **amg)]  # the 385k-unknown target
+    for n in (1, 2):  # map points, preset kappa
+        runs += [dict(case=c, n=n) for c in ("isometric", "free")]
+    runs += [dict(n=1, sets=(f"kappa={k}",)) for k in (30, 100, 300)]
+    runs += [dict(case="free", n=1, sets=soft)]
+    runs += [dict(n=1, petsc=("--fbar-displacement-newton",))]
+    for n in (1, 2):  # solvers and ranks at kappa = 100
+        runs += [dict(n=n, solver="lu", np=np, sets=soft) for np in (1, 2)]
+        runs += [dict(n=n, solver="gmres-gamg", np=np, **amg) for np in (1, 2)]
+        runs += [dict(n=n, solver="gmres-hypre", np=1, **amg)]
+    runs += [dict(n=1, solver="gmres-gamg", np=1, rtol=1e-6)]  # preset kappa
+    runs += [dict(case="free", n=n, solver="gmres-gamg", np=2, **amg) for n in (2, 4)]
+    # a second element at kappa = 100 to judge the F-bar sequence against: Q2 n = 1, 2
+    runs += [dict(fbar=False, degree=2, n=1, sets=soft),
+             dict(fbar=False, degree=2, n=2, solver="gmres-gamg", np=2, **amg)]
+    for r in runs:
+        r.setdefault("dt", dt)
+        r.setdefault("fbar", True)
+    return runs
+
+
+def phase_fbar(args, records):
+    for kw in fbar_runs(args):
+        r = fusiform(args, model="combi", timeout=args.map_timeout, group="fbar", **kw)
+        records.put("fbar", r["name"], r)
+
+
+def phase_restore(args, records):
+    """Seed WORK with the records saved in --results (runs of earlier sessions), so that
+    the report keeps them; GAMG runs from before the near-null-space fix are dropped."""
+    with open(args.results) as f:
+        saved = json.load(f)
+    stale = lambda r: r.get("solver") == "gmres-gamg" and not r.get("near_null_space_fixed")
+    count = 0
+    for key in ("end_to_end", "solvers", "map_runs", "knob_runs", "fbar_runs"):
+        for r in saved.get(key) or []:
+            folder = os.path.join(args.work, "runs", r["name"])
+            path = os.path.join(folder, "record.json")
+            if os.path.exists(path) or stale(r):
+                continue
+            os.makedirs(folder, exist_ok=True)
+            with open(path, "w") as f:
+                json.dump(r, f, indent=1)
+            count += 1
+    for element, data in saved.get("assembly", {}).items():
+        name = element if "_n" in element else f"{element}_n{data.get('refinement', 1)}"
+        path = os.path.join(args.work, f"assembly_{name}.json")
+        if not os.path.exists(path):
+            with open(path, "w") as f:
+                json.dump(data, f, indent=1)
+    print(f"  restored {count} run records from {args.results}", flush=True)
 
 
 def phase_e2e(args, records):
@@ -486,7 +567,7 @@ def map_runs(args, group):
 def phase_map(args, records, groups=("cheap", "q2", "n2-isometric", "n2-free", "late")):
     for group in groups:
         for kw in map_runs(args, group):
-            r = fusiform(args, model="combi", timeout=args.map_timeout, **kw)
+            r = fusiform(args, model="combi", timeout=args.map_timeout, group="fbar", **kw)
             records.put("map", r["name"], r)
 
 
@@ -626,10 +707,14 @@ def extrapolate(records):
     return out
 
 
-def run_table(rs):
+def run_table(rs, value=False):
     rows = []
     for r in rs:
-        rows.append([r["model"] + "".join(" " + x for x in r["sets"]), r["case"], r["element"],
+        extra = [fmt(r.get("F33" if r["case"] == "isometric" else "epsilon"), ".7g")] \
+            if value else []
+        rows.append([r["model"] + "".join(" " + x for x in r["sets"] + r.get("petsc", []))
+                     + (f" rtol {r['linear_rtol']:g}" if r.get("linear_rtol") else ""),
+                     r["case"], r["element"], *extra,
                      r["n"], r.get("unknowns", "-"),
                      fmt(r["dt"], "g"), r["solver"], r["ranks"],
                      fmt(r.get("wall_time") or r.get("elapsed"), ".1f"),
@@ -637,7 +722,8 @@ def run_table(rs):
                      fmt(r.get("newton_per_step"), ".1f"), fmt(r.get("krylov_per_newton"), ".1f"),
                      r.get("cutbacks", "-"), fmt(r.get("peak_rss_MiB"), ".0f"), load_str(r),
                      "yes" if r.get("completed") else "NO"])
-    return md_table(["model", "case", "element", "n", "unknowns", "dt [s]", "solver", "ranks",
+    return md_table(["model", "case", "element"] + (["F33 / epsilon"] if value else [])
+                    + ["n", "unknowns", "dt [s]", "solver", "ranks",
                      "wall [s]", "CPU [s]", "steps", "Newton/step", "Krylov/Newton", "cutbacks",
                      "peak RSS [MiB]", "load before/after", "completed"], rows)
 
@@ -697,7 +783,7 @@ def plot_map(analysis, path, runs):
     import matplotlib.pyplot as plt
     floor = 1e-5  # errors below this are drawn on the floor (equal to the reference)
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
-    markers = {"Q1": "s", "Q2": "D", "P1": "^", "P2": "v"}
+    markers = {"Q1": "s", "Q2": "D", "P1": "^", "P2": "v", "Q1F": "o"}
     for ax, case, title in ((axes[0], "isometric", "isometric force F33"),
                             (axes[1], "free", "free shortening 1 - epsilon")):
         pts = [p for p in analysis["points"] if p["case"] == case]
@@ -736,7 +822,7 @@ def plot_map(analysis, path, runs):
         ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=7, loc="center right")
-    fig.text(0.01, 0.01, "squares Q1, diamonds Q2, triangles P1/P2; blue: dt = 0.05 s; grey: "
+    fig.text(0.01, 0.01, "squares Q1, circles Q1 F-bar (Q1F), diamonds Q2, triangles P1/P2; blue: dt = 0.05 s; grey: "
              "other time steps (end state is path-independent); red: penalty kappa (a model "
              "change, error = distance from the preset-kappa reference); qN: quadrature degree N; *: -snes_max_it 10",
              fontsize=7)
@@ -758,6 +844,11 @@ def phase_report(args, records):
             rs = sorted(data[phase].values(), key=lambda r: (r["n"], r["model"], r["solver"],
                                                                r["ranks"]))
             text.append(f"## {title}\n\n" + run_table(rs))
+    if data.get("fbar"):
+        rs = sorted(data["fbar"].values(), key=lambda r: (r["case"], r["n"], r["sets"],
+                                                          r["solver"], r["ranks"]))
+        text.append("## F-bar Q1 (three-field Newton): accuracy, solvers, ranks, n = 1, 2, 4\n\n"
+                    + run_table(rs, value=True))
     extrapolations = extrapolate(data)
     if extrapolations:
         text.append("### Extrapolation to n = 4 (385,155 unknowns) from n = 1, 2 (LU, one "
@@ -814,11 +905,13 @@ def phase_report(args, records):
                "instructions": data.get("instructions", {}),
                "extrapolations": extrapolations,
                "knob_runs": list(data.get("knobs", {}).values()),
+               "fbar_runs": list(data.get("fbar", {}).values()),
                "experiments": data.get("experiments", {})}
     if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
         with open(args.results) as f:
             for key, value in json.load(f).items():
-                results.setdefault(key, value)
+                if not results.get(key):  # e.g. instruction counts not re-measured
+                    results[key] = value
     with open(args.results, "w") as f:
         json.dump(results, f, indent=1)
     print(f"wrote {args.results}")
@@ -866,7 +959,7 @@ def main():
               "solvers-n2": lambda a, r: phase_solvers(a, r, [2]),
               **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
                  for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
-              "knobs": phase_knobs,
+              "knobs": phase_knobs, "fbar": phase_fbar, "restore": phase_restore,
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

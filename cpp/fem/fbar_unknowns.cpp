@@ -139,17 +139,23 @@ void FbarCellUnknowns::jacobian(Mat A)
 }
 
 double FbarCellUnknowns::dot(std::size_t cell, const std::vector<double>& a,
-                             std::span<const double> du, bool free_only) const
+                             std::span<const double> du) const
 {
   const std::size_t n = _data.n;
   double s = 0;
   for (std::size_t j = 0; j < n; ++j)
-  {
-    const std::int32_t d = _cell_dofs[cell * n + j];
-    if (!(free_only and _fixed[d]))
-      s += a[cell * n + j] * du[d];
-  }
+    s += a[cell * n + j] * du[_cell_dofs[cell * n + j]];
   return s;
+}
+
+bool FbarCellUnknowns::linearisation_is_finite() const
+{
+  for (const std::vector<double>* v :
+       {&_data.R_theta, &_data.R_p, &_data.K00, &_data.g, &_data.K_u0, &_data.K_0u})
+    for (double x : *v)
+      if (!std::isfinite(x))
+        return false;
+  return true;
 }
 
 // Dirichlet dofs: identity rows, full columns everywhere (no lifting), so
@@ -157,7 +163,8 @@ double FbarCellUnknowns::dot(std::size_t cell, const std::vector<double>& a,
 
 void FbarCellUnknowns::condense(std::span<const double> b_cells, std::span<double> b_u) const
 {
-  // K_ff du_f = b_f + K_u0 b_p + g (K_00 b_p + b_theta)
+  // K du = b_u + K_u0 b_p + g (K_00 b_p + b_theta) on the free rows (K: the
+  // condensed tangent, Dirichlet columns kept)
   const std::size_t n = _data.n;
   for (std::size_t i = 0; i < _cells.size(); ++i)
   {
@@ -180,9 +187,9 @@ void FbarCellUnknowns::recover(std::span<const double> du, std::span<const doubl
   for (std::size_t i = 0; i < _cells.size(); ++i)
   {
     const double b_theta = b_cells[2 * i], b_p = b_cells[2 * i + 1];
-    const double dtheta = dot(i, _data.g, du, false) - b_p;
+    const double dtheta = dot(i, _data.g, du) - b_p;
     d_cells[2 * i] = dtheta;
-    d_cells[2 * i + 1] = dot(i, _data.K_0u, du, false) + _data.K00[i] * dtheta - b_theta;
+    d_cells[2 * i + 1] = dot(i, _data.K_0u, du) + _data.K00[i] * dtheta - b_theta;
   }
 }
 
@@ -193,10 +200,10 @@ void FbarCellUnknowns::multiply(std::span<const double> du, std::span<const doub
   for (std::size_t i = 0; i < _cells.size(); ++i)
   {
     const double dtheta = d_cells[2 * i], dp = d_cells[2 * i + 1];
-    y_cells[2 * i] = dot(i, _data.K_0u, du, false) + _data.K00[i] * dtheta - dp;
-    y_cells[2 * i + 1] = dot(i, _data.g, du, false) - dtheta;
-    // free rows: K_ff du_f + K_u0 (dtheta - g du) + g (dp - K_0u du - K_00 g du)
-    const double gdu = dot(i, _data.g, du, false), Kdu = dot(i, _data.K_0u, du, false);
+    const double gdu = dot(i, _data.g, du), Kdu = dot(i, _data.K_0u, du);
+    y_cells[2 * i] = Kdu + _data.K00[i] * dtheta - dp;
+    y_cells[2 * i + 1] = gdu - dtheta;
+    // free rows: K du + K_u0 (dtheta - g du) + g (dp - K_0u du - K_00 g du)
     for (std::size_t j = 0; j < n; ++j)
     {
       const std::int32_t d = _cell_dofs[i * n + j];

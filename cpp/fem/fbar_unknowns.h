@@ -36,6 +36,9 @@ class FbarCellUnknowns
 public:
   FbarCellUnknowns(MuscleProblem& part,
                    const std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>>& bcs);
+  // the forms' kernels write into this object's cell data
+  FbarCellUnknowns(const FbarCellUnknowns&) = delete;
+  FbarCellUnknowns& operator=(const FbarCellUnknowns&) = delete;
 
   /// Entries in the solver vector: (theta, p) per owned cell of the part.
   std::int32_t size() const { return 2 * static_cast<std::int32_t>(_cells.size()); }
@@ -53,6 +56,8 @@ public:
   /// The condensed tangent added into A (blocked, Dirichlet rows zeroed);
   /// stores each cell's linearisation for the calls below.
   void jacobian(Mat A);
+  /// Whether the stored linearisation (and residual) is finite everywhere.
+  bool linearisation_is_finite() const;
 
   /// Condensation of a right-hand side (b_u, b_cells): b_u += the cells' terms
   /// (unrolled, owned and ghost; scatter_rev afterwards).
@@ -68,9 +73,8 @@ public:
 
 private:
   std::vector<double> widened_coefficients(const dolfinx::fem::Form<double>& form) const;
-  /// a . du over the cell's dofs (free ones only, or all)
-  double dot(std::size_t cell, const std::vector<double>& a, std::span<const double> du,
-             bool free_only) const;
+  /// a . du over all the cell's dofs
+  double dot(std::size_t cell, const std::vector<double>& a, std::span<const double> du) const;
 
   MuscleProblem& _part;
   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> _bcs;

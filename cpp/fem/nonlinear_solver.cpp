@@ -55,6 +55,17 @@ MatNullSpace rigid_body_modes(const fem::FunctionSpace& V)
     VecDestroy(&v);
   return ns;
 }
+
+/// The infinity norm (the scale of the round-off floor), or NaN when any entry
+/// is not finite: PETSc's infinity norm skips a NaN row sum, the Frobenius
+/// norm propagates it.
+double finite_norm(Mat A)
+{
+  PetscReal inf, frobenius;
+  MatNorm(A, NORM_INFINITY, &inf);
+  MatNorm(A, NORM_FROBENIUS, &frobenius);
+  return std::isfinite(frobenius) ? inf : std::numeric_limits<double>::quiet_NaN();
+}
 } // namespace
 
 NonlinearSolver::NonlinearSolver(
@@ -212,6 +223,15 @@ NonlinearSolver::~NonlinearSolver()
 
 Mat NonlinearSolver::system_matrix() const { return _constraint ? _A_red : _A; }
 
+KSP NonlinearSolver::linear_solver() const
+{
+  if (_inner)
+    return _inner;
+  KSP ksp;
+  SNESGetKSP(_snes, &ksp);
+  return ksp;
+}
+
 void NonlinearSolver::set_state(Vec x)
 {
   auto u = _problem.u();
@@ -247,7 +267,19 @@ KernelStatus NonlinearSolver::update_activation()
     }
     status.failures += s.failures;
   }
+  // every rank must take the same path through SNES (domain errors)
+  MPI_Allreduce(MPI_IN_PLACE, &status.failures, 1, MPI_INT, MPI_SUM,
+                _problem.mesh()->comm());
   return status;
+}
+
+KernelStatus NonlinearSolver::restore_displacement()
+{
+  _problem.u()->x()->scatter_fwd();
+  for (auto& cells : _cell_unknowns)
+    cells->initialise();
+  _last_kernel = update_activation();
+  return _last_kernel;
 }
 
 std::pair<double, std::int32_t> NonlinearSolver::min_jacobian_determinant() const
@@ -319,7 +351,7 @@ void NonlinearSolver::assemble_full_jacobian()
                             *_problem.V(), _bcs);
   MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
-  MatNorm(A, NORM_INFINITY, &_matrix_norm);
+  _matrix_norm = finite_norm(A);
 }
 
 PetscErrorCode NonlinearSolver::jacobian_callback(SNES snes, Vec x, Mat J, Mat, void* ctx)
@@ -362,8 +394,9 @@ PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
   // A residual cannot be computed more accurately than round-off in the
   // largest element forces, eps |J| |x|; with a stiff penalty that floor can
   // lie above any fixed atol, and Newton would stagnate there.
-  const double floor
-      = 100 * std::numeric_limits<double>::epsilon() * self->_matrix_norm * xnorm;
+  // (three-field: |x| of the displacement block only -- theta and p have other units)
+  const double floor = 100 * std::numeric_limits<double>::epsilon() * self->_matrix_norm
+                       * (self->_cell_unknowns.empty() ? xnorm : self->displacement_norm(snes));
   if (*reason == SNES_CONVERGED_ITERATING and std::isfinite(floor) and fnorm <= floor)
     *reason = SNES_CONVERGED_FNORM_ABS;
   // three-field: converged only once theta = J0(u) too (R_p is tiny in the norm)
@@ -584,7 +617,14 @@ void NonlinearSolver::assemble_three_field_jacobian()
                             _bcs);
   MatAssemblyBegin(_A, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(_A, MAT_FINAL_ASSEMBLY);
-  MatNorm(_A, NORM_INFINITY, &_matrix_norm);
+  _matrix_norm = finite_norm(_A);
+  // the cells' blocks enter the recovery, also where all their dofs are fixed
+  int cells_finite = 1;
+  for (const auto& cells : _cell_unknowns)
+    cells_finite = cells_finite and cells->linearisation_is_finite();
+  MPI_Allreduce(MPI_IN_PLACE, &cells_finite, 1, MPI_INT, MPI_MIN, _problem.mesh()->comm());
+  if (!cells_finite)
+    _matrix_norm = std::numeric_limits<double>::quiet_NaN();
   if (!std::isfinite(_matrix_norm))
     return;
   Mat K = _A;
@@ -597,10 +637,29 @@ void NonlinearSolver::assemble_three_field_jacobian()
   KSPSetOperators(_inner, K, K);
 }
 
+double NonlinearSolver::displacement_norm(SNES snes) const
+{
+  Vec x;
+  SNESGetSolution(snes, &x);
+  const PetscScalar* a;
+  VecGetArrayRead(x, &a);
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  double sum = 0;
+  for (PetscInt i = 0; i < n; ++i)
+    sum += a[i] * a[i];
+  VecRestoreArrayRead(x, &a);
+  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, _problem.mesh()->comm());
+  return std::sqrt(sum);
+}
+
 PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
 {
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
+  // PETSc keeps a shell PC's failure until it is cleared: one failed inner
+  // solve would otherwise fail every later Newton step (and every cutback)
+  PCSetFailedReason(pc, PC_NOERROR);
   const PetscScalar* bb;
   VecGetArrayRead(b_ext, &bb);
   Blocks B = self->blocks(const_cast<double*>(bb));
@@ -615,8 +674,9 @@ PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
   std::copy(B.u.begin(), B.u.end(), r);
   VecRestoreArray(self->_rhs, &r);
   self->add_restricted(self->_work, self->_rhs);
-  // a failing inner solve (or a PETSc error in it) fails this linear solve, so
-  // SNES cuts the step: never a direction from garbage
+  // a failing inner solve (or a PETSc error in it) fails this linear solve:
+  // SNES stops with DIVERGED_LINEAR_SOLVE and the stepper cuts the step --
+  // never a direction from garbage
   PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
   const PetscErrorCode error = KSPSolve(self->_inner, self->_rhs, self->_sol);
   PetscPopErrorHandler();

@@ -91,12 +91,21 @@ public:
   /// The last assembled system matrix (reduced if constrained).
   Mat system_matrix() const;
 
+  /// The KSP of the displacement system (with F-bar cell unknowns: of the
+  /// condensed system), e.g. to change its tolerances between solves.
+  KSP linear_solver() const;
+
   /// Assemble the residual without boundary conditions into `b` (owned +
   /// ghost entries, ghosts accumulated): nodal forces, e.g. reactions.
   void assemble_nodal_forces(dolfinx::la::Vector<double>& b) const;
 
   /// Activation kernels of every part at the current displacement.
   KernelStatus update_activation();
+
+  /// After the displacement was set from outside (a restored state after a
+  /// failed step): F-bar cell unknowns back to theta = J0(u), p = r_0, then the
+  /// activation kernels.  Without F-bar the same as update_activation().
+  KernelStatus restore_displacement();
 
   /// Smallest J over the quadrature points of every part's local cells.
   std::pair<double, std::int32_t> min_jacobian_determinant() const;
@@ -128,6 +137,8 @@ private:
   void to_full(Vec du);
   /// x_red += T^T w_owned (or x += w_owned)
   void add_restricted(const dolfinx::la::Vector<double>& w, Vec x);
+  /// |u| of the SNES iterate's displacement block
+  double displacement_norm(SNES snes) const;
 
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh
@@ -144,7 +155,7 @@ private:
   Vec _F_full = nullptr;  ///< owned part of _b as a plain vector (for T^T b)
   dolfinx::la::Vector<double> _b;
   KernelStatus _last_kernel;
-  double _matrix_norm = 0; ///< infinity norm of the last Jacobian
+  double _matrix_norm = 0; ///< infinity norm of the last Jacobian (NaN: not finite)
   bool _non_finite = false;
   bool _stagnated = false;
   std::vector<double> _norms; ///< residual norms of the current solve

@@ -117,7 +117,7 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
       std::copy(converged.begin(), converged.end(), u.mutable_array().begin());
       u.scatter_fwd();
       _set_time(t);
-      _solver.update_activation();
+      _solver.restore_displacement();
       successes = 0;
       ++record.cutbacks;
       h *= _options.cutback_factor;

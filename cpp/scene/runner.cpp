@@ -624,7 +624,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
     return;
   set_time(stepping.t_start);
   NonlinearSolver solver(body, bcs, constraint, scene.newton);
-  solver.update_activation();
+  solver.restore_displacement();
   QuasiStaticStepper stepper(problem, solver, set_time, stepping);
 
   // Outputs
