@@ -447,7 +447,9 @@ def fbar_runs(args):
         runs += [dict(n=n, solver="lu", np=np, sets=soft) for np in (1, 2)]
         runs += [dict(n=n, solver="gmres-gamg", np=np, **amg) for np in (1, 2)]
         runs += [dict(n=n, solver="gmres-hypre", np=1, **amg)]
-    runs += [dict(n=1, solver="gmres-gamg", np=1, rtol=1e-6)]  # preset kappa
+    # preset kappa: does multigrid cope?
+    runs += [dict(n=1, solver="gmres-gamg", np=1, rtol=1e-6),
+             dict(n=2, solver="gmres-gamg", np=2, rtol=1e-6)]
     runs += [dict(case="free", n=n, solver="gmres-gamg", np=2, **amg) for n in (2, 4)]
     # a second element at kappa = 100 to judge the F-bar sequence against: Q2 n = 1, 2
     runs += [dict(fbar=False, degree=2, n=1, sets=soft),
@@ -728,13 +730,35 @@ def run_table(rs, value=False):
                      "peak RSS [MiB]", "load before/after", "completed"], rows)
 
 
-def map_analysis(records, reference_choice):
-    """Errors against the finest completed reference per case."""
-    runs = [r for r in records.get("map", {}).values() if r.get("completed")]
-    out = {"points": [], "reference": {}}
+def kappa100_runs(records):
+    """One run per (case, element, n) at kappa = 100, from every phase: the finest
+    meshes there need multigrid (and 2 ranks), so the map cannot be LU-only.  Among
+    equal discretisations the one-rank LU run, else the fastest, stands for the rest
+    (their values agree to 1e-11)."""
+    runs = {}
+    for phase in ("map", "fbar", "solvers"):
+        for r in records.get(phase, {}).values():
+            if not r.get("completed") or r["sets"] != ["kappa=100"] or r.get("petsc") \
+                    or r["model"] != "combi":
+                continue
+            key = (r["case"], r["element"], r["n"], r["dt"])
+            rank = (r["solver"] != "lu" or r["ranks"] != 1, r["wall_time"])
+            if key not in runs or rank < runs[key][0]:
+                runs[key] = (rank, r)
+    return {r["name"]: r for _, r in runs.values()}
+
+
+def map_analysis(records, reference_choice, sets=()):
+    """Errors against the finest completed reference per case, among the runs at
+    the penalty `sets` (() = preset; other penalties are drawn as model changes)."""
+    if sets:
+        runs = list(kappa100_runs(records).values())
+    else:
+        runs = [r for r in records.get("map", {}).values() if r.get("completed")]
+    out = {"points": [], "reference": {}, "sets": list(sets)}
     for case, quantity in (("isometric", "F33"), ("free", "epsilon")):
-        # reference: the finest discretisation at preset kappa (most unknowns; Q2 first)
-        candidates = [r for r in runs if r["case"] == case and not r["sets"]
+        # reference: the finest discretisation (most unknowns; Q2 first)
+        candidates = [r for r in runs if r["case"] == case and r["sets"] == list(sets)
                       and not any("--quadrature-degree" in a for a in r.get("petsc", []))]
         if reference_choice:
             candidates = [r for r in candidates
@@ -742,7 +766,7 @@ def map_analysis(records, reference_choice):
         if not candidates:
             continue
         ref = max(candidates, key=lambda r: (r.get("unknowns") or 0, r["degree"],
-                                             -r["dt"]))
+                                             r.get("fbar", False), -r["dt"]))
         out["reference"][case] = {"name": ref["name"], "quantity": quantity,
                                   "value": ref[quantity]}
         for r in runs:
@@ -755,7 +779,9 @@ def map_analysis(records, reference_choice):
             else:
                 err = abs(value - ref[quantity]) / abs(ref[quantity])
             label = f"{r['element']} n={r['n']} dt={r['dt']:g}" + "".join(
-                " " + s for s in r["sets"] + r.get("petsc", []))
+                " " + s for s in r["sets"] + r.get("petsc", [])) + (
+                f" ({r['solver']}, {r['ranks']} ranks)" if r["solver"] != "lu" or r["ranks"] > 1
+                else "")
             out["points"].append({"case": case, "label": label, "name": r["name"],
                                   "petsc": r.get("petsc", []),
                                   "value": value, "error": err, "wall_time": r["wall_time"],
@@ -764,6 +790,7 @@ def map_analysis(records, reference_choice):
                                   "cutbacks": r.get("cutbacks"),
                                   "unknowns": r.get("unknowns"), "element": r["element"],
                                   "n": r["n"], "dt": r["dt"], "sets": r["sets"],
+                                  "model_change": r["sets"] != list(sets),
                                   "loadavg": r["loadavg_before"][0]})
     return out
 
@@ -796,10 +823,11 @@ def plot_map(analysis, path, runs):
                     (ref_run["wall_time"], floor), fontsize=7, xytext=(4, 4),
                     textcoords="offset points")
         for p in pts:
-            colour = "tab:red" if p["sets"] else ("tab:blue" if p["dt"] == 0.05 else "tab:gray")
+            colour = "tab:red" if p["model_change"] else (
+                "tab:blue" if p["dt"] == 0.05 else "tab:gray")
             err = max(p["error"], floor)
             ax.loglog(p["wall_time"], err, markers.get(p["element"], "o"), color=colour, ms=7)
-            if p["sets"]:
+            if p["model_change"]:
                 text, offset = p["sets"][0].replace("kappa=", "k="), (2, -9)
             elif p["dt"] != 0.05:
                 text, offset = f"dt={p['dt']:g}", (2, 5)
@@ -810,15 +838,17 @@ def plot_map(analysis, path, runs):
                 offset = (4, 2)
             ax.annotate(text, (p["wall_time"], err), fontsize=6.5, xytext=offset,
                         textcoords="offset points", color=colour)
-        front = pareto([p for p in pts if not p["sets"]])
+        front = pareto([p for p in pts if not p["model_change"]])
+        penalty = "preset kappa" if not analysis["sets"] else ", ".join(analysis["sets"])
         ax.loglog([p["wall_time"] for p in front], [max(p["error"], floor) for p in front],
-                  "k--", lw=1, label="Pareto front (discretisation, preset kappa)")
+                  "k--", lw=1, label=f"Pareto front (discretisation, {penalty})")
         for level, name in ((0.05, "5 %"), (0.01, "1 %"), (0.001, "0.1 %")):
             ax.axhline(level, color="0.6", lw=0.8, ls=":")
             ax.text(ax.get_xlim()[0] if False else 0.99, level, name, fontsize=7,
                     transform=ax.get_yaxis_transform(), ha="right", va="bottom")
-        ax.set_title(f"COMBI {title} at t = 0.15 s\nerror against {ref['name']}", fontsize=9)
-        ax.set_xlabel("wall time [s] (2-core machine, load 1-6: see results.json)")
+        ax.set_title(f"COMBI {title} at t = 0.15 s ({penalty})\nerror against {ref['name']}",
+                     fontsize=9)
+        ax.set_xlabel("wall time [s] (2-core machine; load and ranks: results.json)")
         ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=7, loc="center right")
@@ -829,6 +859,37 @@ def plot_map(analysis, path, runs):
     fig.tight_layout(rect=(0, 0.03, 1, 1))
     os.makedirs(os.path.dirname(path), exist_ok=True)
     fig.savefig(path, dpi=110)
+
+
+def map_report(analysis, title, penalty):
+    """The map's table and the cheapest setting per accuracy level (in `analysis`)."""
+    rows = []
+    for p in sorted(analysis["points"], key=lambda p: (p["case"], p["wall_time"])):
+        rows.append([p["case"], p["label"], p.get("unknowns"), fmt(p["value"], ".6g"),
+                     fmt(p["error"] * 100, ".3g"), fmt(p["wall_time"], ".1f"),
+                     fmt(p.get("cpu_time"), ".1f"), p.get("newton_iterations"),
+                     p.get("cutbacks"), fmt(p["loadavg"], ".2f")])
+    refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g})"
+                     for c, v in analysis["reference"].items())
+    levels = []
+    for case in ("isometric", "free"):
+        pts = [p for p in analysis["points"] if p["case"] == case and not p["model_change"]]
+        for level in (0.05, 0.01, 0.001):
+            ok = [p for p in pts if p["error"] <= level]
+            best = min(ok, key=lambda p: p["wall_time"]) if ok else None
+            ref_name = analysis["reference"].get(case, {}).get("name", "-")
+            levels.append([case, f"{level * 100:g} %",
+                           best["label"] if best else
+                           f"none but the reference ({ref_name}, own error unknown)",
+                           fmt(best["wall_time"], ".1f") if best else "-",
+                           fmt(best["error"] * 100, ".3g") if best else "-"])
+    analysis["levels"] = levels
+    return (f"## {title}\n\nReference: " + refs + "\n\n"
+            + md_table(["case", "setting", "unknowns", "value", "error [%]", "wall [s]",
+                        "CPU [s]", "Newton its", "cutbacks", "load (1 min, at start)"], rows)
+            + f"\n\n### Cheapest setting per accuracy level (discretisation only, {penalty})"
+            "\n\n" + md_table(["case", "accuracy", "cheapest setting", "wall [s]",
+                                "error [%]"], levels))
 
 
 def phase_report(args, records):
@@ -853,39 +914,19 @@ def phase_report(args, records):
     if extrapolations:
         text.append("### Extrapolation to n = 4 (385,155 unknowns) from n = 1, 2 (LU, one "
                     "rank)\n\n```\n" + json.dumps(extrapolations, indent=1) + "\n```")
-    analysis = None
+    analysis = analysis_100 = None
     if data.get("map"):
         analysis = map_analysis(data, args.reference)
-        rows = []
-        for p in sorted(analysis["points"], key=lambda p: (p["case"], p["wall_time"])):
-            rows.append([p["case"], p["label"], p.get("unknowns"), fmt(p["value"], ".6g"),
-                         fmt(p["error"] * 100, ".3g"), fmt(p["wall_time"], ".1f"),
-                         fmt(p.get("cpu_time"), ".1f"), p.get("newton_iterations"),
-                         p.get("cutbacks"), fmt(p["loadavg"], ".2f")])
-        refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g})"
-                         for c, v in analysis["reference"].items())
-        text.append("## Speed-accuracy map (COMBI)\n\nReference: " + refs + "\n\n"
-                    + md_table(["case", "setting", "unknowns", "value", "error [%]",
-                                "wall [s]", "CPU [s]", "Newton its", "cutbacks",
-                                "load (1 min, at start)"], rows))
-        levels = []
-        for case in ("isometric", "free"):
-            pts = [p for p in analysis["points"] if p["case"] == case and not p["sets"]]
-            for level in (0.05, 0.01, 0.001):
-                ok = [p for p in pts if p["error"] <= level]
-                best = min(ok, key=lambda p: p["wall_time"]) if ok else None
-                ref_name = analysis["reference"].get(case, {}).get("name", "-")
-                levels.append([case, f"{level * 100:g} %",
-                               best["label"] if best else
-                               f"none but the reference ({ref_name}, own error unknown)",
-                               fmt(best["wall_time"], ".1f") if best else "-",
-                               fmt(best["error"] * 100, ".3g") if best else "-"])
-        analysis["levels"] = levels
-        text.append("### Cheapest setting per accuracy level (discretisation only, preset "
-                    "kappa)\n\n" + md_table(["case", "accuracy", "cheapest setting",
-                                              "wall [s]", "error [%]"], levels))
+        text.append(map_report(analysis, "Speed-accuracy map (COMBI)", "preset kappa"))
         plot_map(analysis, os.path.join(ROOT, "docs", "images", "speed_accuracy.png"),
                  list(data["map"].values()))
+        analysis_100 = map_analysis(data, None, sets=("kappa=100",))
+        if analysis_100["reference"]:
+            text.append(map_report(analysis_100, "Speed-accuracy map at kappa = 100 (COMBI): "
+                                   "finer references, multigrid on 2 ranks", "kappa = 100"))
+            plot_map(analysis_100, os.path.join(ROOT, "docs", "images",
+                                                "speed_accuracy_kappa100.png"),
+                     list(kappa100_runs(data).values()))
     if data.get("knobs"):
         text.append("## Anti-locking Q1 (BLE) and the activation root tolerance\n\n"
                     + knob_table(data["knobs"]))
@@ -902,6 +943,7 @@ def phase_report(args, records):
                "solvers": list(data.get("solvers", {}).values()),
                "map_runs": list(data.get("map", {}).values()),
                "speed_accuracy": analysis,
+               "speed_accuracy_kappa100": analysis_100,
                "instructions": data.get("instructions", {}),
                "extrapolations": extrapolations,
                "knob_runs": list(data.get("knobs", {}).values()),
