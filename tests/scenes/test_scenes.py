@@ -455,31 +455,40 @@ def extremes(build):
 
 
 # ---------------------------------------------------------------------------
-# anti-locking Q1 (BLE): the free shortening of the graded block against Q2
+# element comparisons: the free shortening of the graded block against Q2 (anti-locking Q1 for BLE, F-bar for every model)
 # ---------------------------------------------------------------------------
-def anti_locking(build):
-    graded = absolute_paths(open(os.path.join(SCENES, "block_graded.yaml")).read())
-    graded = graded.replace("step: 0.01", "step: 0.005")
-    elements = {"Q1": "{degree: 1}", "Q1 anti-locking": "{degree: 1, volumetric_quadrature_degree: 1}",
-                "Q2": "{degree: 2}"}
+def element_shortenings(build, text, elements, two_ranks, timeout, label=""):
+    """Final free shortening 1 - epsilon of the block scene `text` for each element
+    (name -> scene `element:` value); the element `two_ranks` is also run on 2 ranks,
+    which must agree to 1e-8."""
     shortening = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, element in elements.items():
             path = os.path.join(tmp, "block.yaml")
             with open(path, "w") as f:
-                f.write(graded.replace("element: {degree: 2}", "element: " + element))
+                f.write(text.replace("element: {degree: 2}", "element: " + element))
             out = os.path.join(tmp, name.replace(" ", "_"))
-            r = run(build, [path, "--out", out, "--quiet"], timeout=600)
-            check(r.returncode == 0, f"{name}: exit {r.returncode} {(r.stdout + r.stderr)[-300:]}")
+            r = run(build, [path, "--out", out, "--quiet"], timeout=timeout)
+            check(r.returncode == 0,
+                  f"{label}{name}: exit {r.returncode} {(r.stdout + r.stderr)[-300:]}")
             if r.returncode == 0:
                 shortening[name] = 1 - float(read_series(os.path.join(out, "series.csv"))[-1]["epsilon"])
-            if name == "Q1 anti-locking":  # the combined cell kernel on ghosted cells
-                r = run(build, [path, "--out", out + "_np2", "--quiet"], ranks=2, timeout=600)
+            if name == two_ranks:
+                r = run(build, [path, "--out", out + "_np2", "--quiet"], ranks=2, timeout=timeout)
                 check(r.returncode == 0, f"{name} on 2 ranks: exit {r.returncode}")
                 if r.returncode == 0 and name in shortening:
                     two = 1 - float(read_series(os.path.join(out + "_np2", "series.csv"))[-1]["epsilon"])
                     check(abs(two - shortening[name]) <= 1e-8 * shortening[name],
                           f"{name}: 1 and 2 ranks agree ({shortening[name]!r} vs {two!r})")
+    return shortening
+
+
+def anti_locking(build):
+    graded = absolute_paths(open(os.path.join(SCENES, "block_graded.yaml")).read())
+    graded = graded.replace("step: 0.01", "step: 0.005")
+    elements = {"Q1": "{degree: 1}", "Q1 anti-locking": "{degree: 1, volumetric_quadrature_degree: 1}",
+                "Q2": "{degree: 2}"}
+    shortening = element_shortenings(build, graded, elements, "Q1 anti-locking", timeout=600)
     if len(shortening) < 3:
         return
     reference = shortening["Q2"]
@@ -502,25 +511,9 @@ def fbar(build):
         text = graded.replace("material: {model: ble}", f"material: {{model: {model}}}")
         if model == "giant":  # twitch train: 1 ms steps resolve it (demo default)
             text = text.replace("step: 0.005", "step: 0.002").replace("end: 0.1", "end: 0.03")
-        shortening = {}
-        with tempfile.TemporaryDirectory() as tmp:
-            for name, element in elements.items():
-                path = os.path.join(tmp, "block.yaml")
-                with open(path, "w") as f:
-                    f.write(text.replace("element: {degree: 2}", "element: " + element))
-                out = os.path.join(tmp, name.replace(" ", "_"))
-                r = run(build, [path, "--out", out, "--quiet"], timeout=900)
-                check(r.returncode == 0,
-                      f"{model} {name}: exit {r.returncode} {(r.stdout + r.stderr)[-300:]}")
-                if r.returncode == 0:
-                    shortening[name] = 1 - float(read_series(os.path.join(out, "series.csv"))[-1]["epsilon"])
-                if name == "Q1 F-bar" and model == "combi":  # the eliminated J0 on ghosted cells
-                    r = run(build, [path, "--out", out + "_np2", "--quiet"], ranks=2, timeout=900)
-                    check(r.returncode == 0, f"{name} on 2 ranks: exit {r.returncode}")
-                    if r.returncode == 0 and name in shortening:
-                        two = 1 - float(read_series(os.path.join(out + "_np2", "series.csv"))[-1]["epsilon"])
-                        check(abs(two - shortening[name]) <= 1e-8 * shortening[name],
-                              f"{name}: 1 and 2 ranks agree ({shortening[name]!r} vs {two!r})")
+        two_ranks = "Q1 F-bar" if model == "combi" else None  # the eliminated J0 on ghosted cells
+        shortening = element_shortenings(build, text, elements, two_ranks, timeout=900,
+                                         label=model + " ")
         if len(shortening) < 3:
             continue
         reference = shortening["Q2"]
