@@ -1,12 +1,13 @@
 #!/usr/bin/python3
 """Fusiform-muscle tests (issue: fusiform muscle).  Each subcommand is one ctest:
 
-    test_fusiform.py run      --build B --model M --degree D [--dt DT]  both cases finish
-    test_fusiform.py findings --build B                                   the paper's findings
+    test_fusiform.py run      --build B --model M --element E [--dt DT]  both cases finish
+    test_fusiform.py findings --build B [--element E]                    the paper's findings
     test_fusiform.py parity   --build B                                   1 vs 2 MPI ranks
     test_fusiform.py failure  --build B                                   failure without loss
 
-`run` leaves its summaries under B/test_out/fusiform_q<D>/ for `findings`.
+E is q1, q2 or fbar (the paper's F-bar hexahedron).  `run` leaves its summaries
+under B/test_out/fusiform_<E>/ for `findings`.
 References are independent of the code under test: the isometric force is
 computed twice (section force at mid-length and reaction at the origin, two
 different integrals that equilibrium makes equal); a free muscle carries no net
@@ -47,18 +48,21 @@ def fusiform(build, out, options, ranks=1):
     return result.returncode, summary, series
 
 
-def out_dir(build, degree):
-    return os.path.join(build, "test_out", f"fusiform_q{degree}")
+ELEMENT_OPTIONS = {"q1": ["--degree", "1"], "q2": ["--degree", "2"], "fbar": ["--fbar"]}
+
+
+def out_dir(build, element):
+    return os.path.join(build, "test_out", f"fusiform_{element}")
 
 
 def run(args):
     """Both cases of one model finish; forces are consistent."""
-    options = ["--model", args.model, "--refinement", "1", "--degree", str(args.degree)]
+    options = ["--model", args.model, "--refinement", "1", *ELEMENT_OPTIONS[args.element]]
     if args.dt:
         options += ["--dt", str(args.dt)]
     forces = {}
     for case in ("isometric", "free"):
-        out = os.path.join(out_dir(args.build, args.degree), f"{args.model}_{case}")
+        out = os.path.join(out_dir(args.build, args.element), f"{args.model}_{case}")
         code, summary, series = fusiform(args.build, out, options + ["--case", case])
         check(code == 0 and summary.get("completed"), f"{args.model} {case}: run completes "
               f"(exit {code}, {summary.get('steps')} steps, {summary.get('cutbacks')} cutbacks)")
@@ -78,19 +82,20 @@ def run(args):
 
 
 def findings(args):
-    """The paper's findings, on the locking-free quadratic elements."""
-    degree = 2
+    """The paper's findings, on a locking-free element (F-bar, as in the paper, or Q2)."""
     summary = {}
     for model in MODELS:
         for case in ("isometric", "free"):
-            path = os.path.join(out_dir(args.build, degree), f"{model}_{case}", "summary.json")
+            path = os.path.join(out_dir(args.build, args.element), f"{model}_{case}",
+                                "summary.json")
             summary[(model, case)] = json.load(open(path)) if os.path.exists(path) else {}
     forces = {m: summary[(m, "isometric")].get("F33") for m in MODELS}
     eps = {m: summary[(m, "free")].get("epsilon") for m in MODELS}
     print("F33 [mN]:", forces)
     print("epsilon:", eps)
     if None in forces.values() or None in eps.values():
-        check(False, "all Q2 runs present (run the fusiform_q2_* tests first)")
+        check(False, f"all {args.element} runs present "
+              f"(run the fusiform_{args.element}_* tests first)")
         return
     spread = (max(forces.values()) - min(forces.values())) / min(forces.values())
     # paper: "the computed force maxima are close to equal"
@@ -161,7 +166,7 @@ def main():
     parser.add_argument("command", choices=["run", "findings", "parity", "failure"])
     parser.add_argument("--build", required=True)
     parser.add_argument("--model", choices=MODELS)
-    parser.add_argument("--degree", type=int, default=1)
+    parser.add_argument("--element", choices=sorted(ELEMENT_OPTIONS), default="fbar")
     parser.add_argument("--dt", type=float)
     parser.add_argument("--force-spread", type=float, default=0.05)
     parser.add_argument("--shortening-spread", type=float, default=0.05)
