@@ -190,8 +190,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
               "element": element_name(cell, degree, fbar), "n": n, "dt": dt, "solver": solver,
               "ranks": np, "sets": list(sets), "petsc": list(petsc), "group": group,
               "fbar": fbar, "linear_rtol": rtol,
-              # GAMG runs before this field existed had a dangling near-null space
-              "near_null_space_fixed": solver == "gmres-gamg",
+              **near_null_space_markers(solver, case),
               "command": " ".join(shlex.quote(c) for c in command[5:]),
               "elapsed": elapsed, "loadavg_before": before, "loadavg_after": after,
               "binary_mtime": binary_mtime(args),
@@ -254,6 +253,13 @@ def running_elsewhere(out):
     return False
 
 
+def near_null_space_markers(solver, case):
+    """Which GAMG fixes a run has: before 2026-12-01 the rigid-body vectors dangled, and
+    until that afternoon the free case (uniform-axial constraint) had none at all."""
+    return {"near_null_space_fixed": solver == "gmres-gamg",
+            "reduced_near_null_space": solver == "gmres-gamg" and case == "free"}
+
+
 def adopt(name, out, base):
     """A run whose driver was stopped but which finished by itself: its summary and
     /usr/bin/time output are kept; the load average is the one at adoption."""
@@ -267,6 +273,7 @@ def adopt(name, out, base):
                                       summary.get("fbar", False)),
               "fbar": summary.get("fbar", False),
               "n": summary["refinement"], "dt": summary["dt"], **base,
+              **near_null_space_markers(base["solver"], summary["case"]),
               "elapsed": summary["wall_time"], "loadavg_before": loadavg(),
               "loadavg_after": loadavg(), "adopted": True}
     for k in ("F33", "epsilon", "volume_change", "wall_time", "newton_iterations",
@@ -457,9 +464,9 @@ def fbar_runs(args):
     # preset kappa: does multigrid cope?
     runs += [dict(n=1, solver="gmres-gamg", np=1, rtol=1e-6),
              dict(n=2, solver="gmres-gamg", np=2, rtol=1e-6)]
-    # free at n = 2 only: GAMG gets no near-null space under the uniform-axial constraint
-    # (479 Krylov its per Newton its at n = 2), n = 4 did not finish beside CI
-    runs += [dict(case="free", n=2, solver="gmres-gamg", np=2, **amg)]
+    # free: the rigid-body modes on the constraint's reduced unknowns (479 Krylov its per
+    # Newton its at n = 2 without them); n = 4 is the free reference at kappa = 100
+    runs += [dict(case="free", n=n, solver="gmres-gamg", np=2, **amg) for n in (2, 4)]
     # a second element at kappa = 100 to judge the F-bar sequence against (Q2 n = 2 with
     # GAMG did not fit: displacement Newton, first step ~50 iterations at n = 1 already)
     runs += [dict(fbar=False, degree=2, n=1, sets=soft)]
@@ -481,10 +488,13 @@ def phase_fbar(args, records):
 
 def phase_restore(args, records):
     """Seed WORK with the records saved in --results (runs of earlier sessions), so that
-    the report keeps them; GAMG runs from before the near-null-space fix are dropped."""
+    the report keeps them; GAMG runs from before the near-null-space fixes (2026-12-01:
+    dangling vectors; none under the uniform-axial constraint) are dropped."""
     with open(args.results) as f:
         saved = json.load(f)
-    stale = lambda r: r.get("solver") == "gmres-gamg" and not r.get("near_null_space_fixed")
+    stale = lambda r: r.get("solver") == "gmres-gamg" and (
+        not r.get("near_null_space_fixed")
+        or (r.get("case") == "free" and not r.get("reduced_near_null_space")))
     count = 0
     for key in ("end_to_end", "solvers", "map_runs", "knob_runs", "fbar_runs"):
         for r in saved.get(key) or []:

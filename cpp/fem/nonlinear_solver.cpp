@@ -16,8 +16,12 @@ namespace muscle
 {
 namespace
 {
-/// Rigid-body modes of a 3-D displacement space, for GAMG.
-MatNullSpace rigid_body_modes(const fem::FunctionSpace& V)
+/// Rigid-body modes of a 3-D displacement space, for GAMG: on V's unknowns, or,
+/// under the uniform-axial constraint, on the reduced unknowns x with T x closest
+/// to each mode (the constrained set takes the mode's mean there).  Without them
+/// GAMG coarsens the free muscle's system as a scalar problem (BENCHMARKS.md).
+MatNullSpace rigid_body_modes(const fem::FunctionSpace& V,
+                              const UniformDisplacementConstraint* constraint)
 {
   auto map = V.dofmap()->index_map;
   const int bs = V.dofmap()->index_map_bs();
@@ -37,18 +41,49 @@ MatNullSpace rigid_body_modes(const fem::FunctionSpace& V)
     basis[5].mutable_array()[3 * i + 0] = p[2];
     basis[5].mutable_array()[3 * i + 2] = -p[0];
   }
-  la::orthonormalize(std::span<la::Vector<double>>(basis));
   // PETSc-owned copies: the null space outlives `basis` (a wrapped array would
   // dangle, and GAMG would coarsen with whatever reuses that memory)
   std::vector<Vec> vecs;
+  Vec weight = nullptr, ones = nullptr;
+  if (constraint)
+  {
+    // (T^T T)^-1 T^T: T^T T is diagonal, 1 or the size of the constrained set
+    weight = constraint->create_reduced_vector();
+    MatCreateVecs(constraint->T(), nullptr, &ones);
+    VecSet(ones, 1.0);
+    MatMultTranspose(constraint->T(), ones, weight);
+  }
   for (auto& b : basis)
   {
     Vec wrap = la::petsc::create_vector_wrap(b), copy;
-    VecDuplicate(wrap, &copy);
-    VecCopy(wrap, copy);
+    if (constraint)
+    {
+      copy = constraint->create_reduced_vector();
+      MatMultTranspose(constraint->T(), wrap, copy);
+      VecPointwiseDivide(copy, copy, weight);
+    }
+    else
+    {
+      VecDuplicate(wrap, &copy);
+      VecCopy(wrap, copy);
+    }
     VecDestroy(&wrap);
     vecs.push_back(copy);
   }
+  VecDestroy(&weight);
+  VecDestroy(&ones);
+  // PETSc asks for an orthonormal basis: Gram-Schmidt, twice for round-off
+  for (std::size_t i = 0; i < vecs.size(); ++i)
+    for (int pass = 0; pass < 2; ++pass)
+    {
+      for (std::size_t j = 0; j < i; ++j)
+      {
+        PetscScalar d;
+        VecDot(vecs[i], vecs[j], &d);
+        VecAXPY(vecs[i], -d, vecs[j]);
+      }
+      VecNormalize(vecs[i], nullptr);
+    }
   MatNullSpace ns;
   MatNullSpaceCreate(map->comm(), PETSC_FALSE, 6, vecs.data(), &ns);
   for (Vec& v : vecs)
@@ -178,12 +213,11 @@ NonlinearSolver::NonlinearSolver(
     else
     {
       PCSetType(pc, PCGAMG);
+      _near_null_space = rigid_body_modes(*V, _constraint.get());
       if (!_constraint)
-      {
-        MatNullSpace ns = rigid_body_modes(*V);
-        MatSetNearNullSpace(_A, ns);
-        MatNullSpaceDestroy(&ns);
-      }
+        MatSetNearNullSpace(_A, _near_null_space);
+      else if (_A_red)
+        MatSetNearNullSpace(_A_red, _near_null_space);
       MatSetBlockSize(_A, 3);
     }
   }
@@ -214,6 +248,8 @@ NonlinearSolver::~NonlinearSolver()
   MatDestroy(&_A);
   if (_A_red)
     MatDestroy(&_A_red);
+  if (_near_null_space)
+    MatNullSpaceDestroy(&_near_null_space);
   VecDestroy(&_x);
   if (_u_petsc)
     VecDestroy(&_u_petsc);
@@ -630,8 +666,11 @@ void NonlinearSolver::assemble_three_field_jacobian()
   Mat K = _A;
   if (_constraint)
   {
-    MatPtAP(_A, _constraint->T(), _A_red ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX,
+    const bool first = !_A_red;
+    MatPtAP(_A, _constraint->T(), first ? MAT_INITIAL_MATRIX : MAT_REUSE_MATRIX,
             PETSC_DEFAULT, &_A_red);
+    if (first and _near_null_space)
+      MatSetNearNullSpace(_A_red, _near_null_space);
     K = _A_red;
   }
   KSPSetOperators(_inner, K, K);

@@ -149,6 +149,7 @@ private:
   SNES _snes = nullptr;
   Mat _A = nullptr;       ///< full Jacobian
   Mat _A_red = nullptr;   ///< T^T A T when constrained
+  MatNullSpace _near_null_space = nullptr; ///< rigid-body modes of the matrix GAMG sees
   Vec _x = nullptr;       ///< SNES iterate (a copy of u's owned part, or reduced)
   Vec _u_petsc = nullptr; ///< wraps u's owned part (unconstrained case)
   Vec _b_petsc = nullptr; ///< wraps _b (full residual)

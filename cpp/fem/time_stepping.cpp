@@ -72,7 +72,12 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
   if (total > 0)
     f.where += "; activation kernel without admissible root at " + std::to_string(total)
                + " quadrature points";
-  if (global.value <= 0)
+  if (f.reason.find("DIVERGED_LINEAR_SOLVE") != std::string::npos)
+    // a smaller step rarely rescues an iterative solver that stalls (BENCHMARKS.md)
+    f.advice = "the linear solver failed, not Newton: the direct solver (--linear-solver lu, "
+               "scene solver.linear: lu), a looser --linear-rtol, or -ksp_monitor "
+               "-ksp_converged_reason to see how it failed";
+  else if (global.value <= 0)
     f.advice = "elements invert: use a smaller time step (--dt, scene time.step), a finer mesh, or "
                "quadratic elements";
   else

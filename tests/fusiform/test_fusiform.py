@@ -159,6 +159,16 @@ def failure(args):
         rows = list(csv.DictReader(f))
     check(all(math.isfinite(float(v)) for r in rows for v in r.values()),
           "no NaN in series.csv")
+    # a stalled iterative linear solver gets advice about the linear solver, not the step
+    command = [os.path.join(args.build, "fusiform"), "--model", "combi", "--refinement", "1",
+               "--dt", "0.05", "--max-cutbacks", "1", "--linear-solver", "gmres-gamg",
+               "--out", out + "_linear", "--quiet", "--no-fields", "-ksp_max_it", "2"]
+    result = subprocess.run(command, capture_output=True, text=True)
+    message = result.stderr.strip()
+    print(message)
+    check(result.returncode == 3 and "DIVERGED_LINEAR_SOLVE" in message,
+          f"a linear-solver failure is reported as such (exit {result.returncode})")
+    check("--linear-solver lu" in message, "the advice names the direct solver")
 
 
 def main():
