@@ -40,7 +40,8 @@ struct Block
   std::shared_ptr<fem::Constant<double>> lift;
 };
 
-Block make_block(Model model, bool constrained)
+/// `kappa` > 0 replaces the preset incompressibility penalty.
+Block make_block(Model model, bool constrained, double kappa = 0)
 {
   auto mesh = std::make_shared<mesh::Mesh>(mesh::create_box(
       MPI_COMM_WORLD, {{{0, 0, 0}, {1, 1, 1.5}}}, {2, 2, 3}, mesh::CellType::hexahedron,
@@ -48,7 +49,10 @@ Block make_block(Model model, bool constrained)
   Discretisation d;
   d.fbar = true;
   Block block;
-  block.problem = std::make_unique<MuscleProblem>(mesh, ParameterSet(model), d);
+  ParameterSet parameters(model);
+  if (kappa > 0)
+    parameters.set("kappa", kappa);
+  block.problem = std::make_unique<MuscleProblem>(mesh, parameters, d);
   block.problem->set_fibre({0.1, 0.0, 1.0});
 
   const int fdim = 2;
@@ -84,9 +88,9 @@ Block make_block(Model model, bool constrained)
 /// The block activated in `steps` equal load steps (the displacement Newton
 /// needs several under the preset penalty).
 Outcome solve(Model model, bool three_field, const std::string& line_search, bool constrained,
-              int steps)
+              int steps, double kappa = 0)
 {
-  Block block = make_block(model, constrained);
+  Block block = make_block(model, constrained, kappa);
   MuscleProblem& problem = *block.problem;
   NewtonOptions options;
   options.fbar_cell_unknowns = three_field;
@@ -196,7 +200,10 @@ INSTANTIATE_TEST_SUITE_P(
 
 // A failed linear solve must fail only that Newton solve: the stepper cuts the
 // step and tries again with the same solver (PETSc keeps a shell
-// preconditioner's failure flag until it is cleared).
+// preconditioner's failure flag until it is cleared).  The failure is forced
+// (one GMRES iteration of the production multigrid); the second solve runs the
+// same KSP preconditioned by an exact factorisation, so that its convergence
+// has a margin on any CPU and only the recovery is tested.
 TEST(FbarNewtonRecovery, SolvesAgainAfterAFailedLinearSolve)
 {
   for (bool constrained : {false, true})
@@ -210,14 +217,21 @@ TEST(FbarNewtonRecovery, SolvesAgainAfterAFailedLinearSolve)
     KSPSetTolerances(linear, 1e-8, 1e-30, PETSC_DEFAULT, 1); // one GMRES iteration: fails
     const NewtonReport failed = solver.solve();
     EXPECT_FALSE(failed.converged) << constrained;
+    EXPECT_NE(failed.reason.find("DIVERGED_LINEAR_SOLVE"), std::string::npos) << failed.reason;
+    EXPECT_NE(failed.linear_failure.find("DIVERGED_ITS"), std::string::npos)
+        << failed.linear_failure;
     // back to the start, as the stepper does after a failure
     std::fill(problem.u()->x()->mutable_array().begin(),
               problem.u()->x()->mutable_array().end(), 0.0);
     solver.restore_displacement();
-    // the production cap: on this 100-unknown block GAMG is a weak two-level method
-    KSPSetTolerances(linear, 1e-8, 1e-30, PETSC_DEFAULT, 2000);
+    PC pc;
+    KSPGetPC(linear, &pc);
+    PCSetType(pc, PCLU);
+    PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+    KSPSetTolerances(linear, 1e-10, 1e-30, PETSC_DEFAULT, 50);
     const NewtonReport report = solver.solve();
     EXPECT_TRUE(report.converged) << report.reason << (constrained ? " (free)" : " (pulled)");
+    EXPECT_TRUE(report.linear_failure.empty()) << report.linear_failure;
     // the same state as the direct solver's
     const Outcome lu = solve(Model::combi, true, "cp", constrained, 1);
     const std::vector<double> u(problem.u()->x()->array().begin(),
@@ -231,14 +245,24 @@ TEST(FbarNewtonRecovery, SolvesAgainAfterAFailedLinearSolve)
 // iterations per Newton iteration for the free fusiform muscle, n = 2).  The
 // reduced axial translation lies in the span of the near-null space handed over,
 // and the multigrid solve reaches the direct solver's state.
+//
+// At the preset penalty (kappa = 1000) GAMG is a weak two-level method on this
+// 100-unknown block: 200-300 Krylov iterations per Newton iteration, and on some
+// CPUs a GMRES breakdown.  At kappa = 10 (the penalty of the musculoskeletal
+// scenes) it needs about 22, far from the 2,000 cap, so the test hangs on the
+// modes and not on round-off.
 TEST(FbarNewtonMultigrid, FreeBlockKeepsTheRigidBodyModes)
 {
-  Block block = make_block(Model::combi, true);
+  const double kappa = 10;
+  Block block = make_block(Model::combi, true, kappa);
   MuscleProblem& problem = *block.problem;
   NonlinearSolver solver(problem, block.bcs, block.constraint, multigrid_options());
   problem.set_time_factor(1.0);
   const NewtonReport report = solver.solve();
   ASSERT_TRUE(report.converged) << report.reason;
+  EXPECT_LT(report.linear_iterations, 100 * report.iterations)
+      << "GAMG lost its margin: " << report.linear_iterations << " Krylov iterations in "
+      << report.iterations << " Newton iterations";
 
   MatNullSpace ns = nullptr;
   MatGetNearNullSpace(solver.system_matrix(), &ns);
@@ -276,7 +300,8 @@ TEST(FbarNewtonMultigrid, FreeBlockKeepsTheRigidBodyModes)
   VecDestroy(&e);
   VecDestroy(&rest);
 
-  const Outcome lu = solve(Model::combi, true, "cp", true, 1);
+  const Outcome lu = solve(Model::combi, true, "cp", true, 1, kappa);
+  ASSERT_TRUE(lu.report.converged) << lu.report.reason;
   const std::vector<double> u(problem.u()->x()->array().begin(),
                               problem.u()->x()->array().end());
   EXPECT_LT(max_abs_diff(u, lu.u), 1e-7 * max_abs(lu.u));

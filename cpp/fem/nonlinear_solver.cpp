@@ -1,4 +1,5 @@
 #include "nonlinear_solver.h"
+#include "linear_failure.h"
 
 #include "fbar_unknowns.h"
 #include "uniform_constraint.h"
@@ -6,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <dolfinx/fem/assembler.h>
 #include <dolfinx/fem/petsc.h>
 #include <dolfinx/la/petsc.h>
@@ -452,6 +454,19 @@ PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
   return 0;
 }
 
+namespace
+{
+/// PETSc errors return their code instead of printing a trace, for a scope
+/// (exception-safe: a callback may throw through SNESSolve).
+struct QuietPetscErrors
+{
+  QuietPetscErrors() { PetscPushErrorHandler(PetscReturnErrorHandler, nullptr); }
+  ~QuietPetscErrors() { PetscPopErrorHandler(); }
+  QuietPetscErrors(const QuietPetscErrors&) = delete;
+  QuietPetscErrors& operator=(const QuietPetscErrors&) = delete;
+};
+} // namespace
+
 NewtonReport NonlinearSolver::solve()
 {
   NewtonReport report;
@@ -462,6 +477,12 @@ NewtonReport NonlinearSolver::solve()
   else
     VecCopy(_u_petsc, _x);
   const long inner_before = _inner_iterations;
+  _linear_error = 0;
+  // a PETSc error inside the solve (SOR's "Zero diagonal", a failed
+  // factorisation) fails this solve with PETSc's message: the stepper cuts the
+  // step and, in the end, stops with advice -- no trace on the console
+  PetscErrorCode error = 0;
+  std::optional<QuietPetscErrors> quiet(std::in_place);
   if (!_cell_unknowns.empty())
   {
     // theta = J0(u), p = r_0: the converged state's own cell unknowns
@@ -478,23 +499,36 @@ NewtonReport NonlinearSolver::solve()
     for (std::size_t i = 0; i < _cell_unknowns.size(); ++i)
       _cell_unknowns[i]->get(b.cells[i]);
     VecRestoreArray(_x_ext, &a);
-    SNESSolve(_snes, nullptr, _x_ext);
+    error = SNESSolve(_snes, nullptr, _x_ext);
     set_extended_state(_x_ext);
   }
   else
   {
-    SNESSolve(_snes, nullptr, _x);
+    error = SNESSolve(_snes, nullptr, _x);
     set_state(_x); // leave u (and omega_a) at the final iterate
   }
 
+  quiet.reset();
   SNESConvergedReason reason;
   SNESGetConvergedReason(_snes, &reason);
-  report.converged = reason > 0;
+  if (error and reason > 0)
+    reason = SNES_DIVERGED_FUNCTION_DOMAIN; // never report an errored solve as converged
+  report.converged = reason > 0 and !error;
   report.reason = _stagnated ? "STAGNATED (residual down by less than "
                                    + std::to_string(_options.stagnation_reduction)
                                    + " in " + std::to_string(_options.stagnation_window)
                                    + " iterations)"
                              : std::string(SNESConvergedReasons[reason]);
+  if (error)
+  {
+    // in the displacement Newton the error escapes SNES from its KSP
+    report.reason = "DIVERGED_LINEAR_SOLVE";
+    report.linear_failure = describe_linear_failure(linear_solver(), error);
+  }
+  else if (reason == SNES_DIVERGED_LINEAR_SOLVE)
+    report.linear_failure = describe_linear_failure(linear_solver(), _linear_error);
+  if (!report.linear_failure.empty())
+    report.reason += " (" + report.linear_failure + ")";
   PetscInt its, lits;
   SNESGetIterationNumber(_snes, &its);
   SNESGetLinearSolveIterations(_snes, &lits);
@@ -723,6 +757,7 @@ PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
   KSPGetIterationNumber(self->_inner, &its);
   self->_inner_iterations += its;
   KSPConvergedReason reason = KSP_DIVERGED_PC_FAILED;
+  self->_linear_error = error;
   if (!error)
     KSPGetConvergedReason(self->_inner, &reason);
   if (reason < 0)

@@ -55,6 +55,8 @@ struct NewtonReport
   int iterations = 0;
   int linear_iterations = 0;
   std::string reason;                 ///< PETSc's converged/diverged reason
+  /// DIVERGED_LINEAR_SOLVE: how the linear solver failed (describe_linear_failure)
+  std::string linear_failure;
   std::vector<double> residual_norms; ///< one per Newton iteration, first = initial
   KernelStatus kernel;                ///< activation kernel at the last evaluation
   bool non_finite = false;            ///< a residual evaluation produced NaN/inf
@@ -169,6 +171,7 @@ private:
   dolfinx::la::Vector<double> _work, _work2; ///< full displacement, with ghosts
   double _constraint_violation = 0;
   long _inner_iterations = 0;
+  PetscErrorCode _linear_error = 0; ///< a PETSc error in the last condensed solve
 };
 
 } // namespace muscle

@@ -1,4 +1,5 @@
 #include "time_stepping.h"
+#include "linear_failure.h"
 
 #include <cmath>
 #include <dolfinx/mesh/utils.h>
@@ -74,9 +75,7 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
                + " quadrature points";
   if (f.reason.find("DIVERGED_LINEAR_SOLVE") != std::string::npos)
     // a smaller step rarely rescues an iterative solver that stalls (BENCHMARKS.md)
-    f.advice = "the linear solver failed, not Newton: the direct solver (--linear-solver lu, "
-               "scene solver.linear: lu), a looser --linear-rtol, or -ksp_monitor "
-               "-ksp_converged_reason to see how it failed";
+    f.advice = linear_failure_advice(report.linear_failure);
   else if (global.value <= 0)
     f.advice = "elements invert: use a smaller time step (--dt, scene time.step), a finer mesh, or "
                "quadratic elements";
