@@ -242,3 +242,56 @@ TEST(SceneReader, FuzzedScenesNeverCrash)
   std::printf("fuzz: %d mutated scenes read, %d rejected with a message\n", read, rejected);
   EXPECT_GT(rejected, 1000);
 }
+
+// --set KEY=VALUE: the value lands where the dotted path says, a new key of a
+// mapping is checked like one written in the file, and every mistake names the
+// --set it came from.
+TEST(SceneOverrides, ReplaceAddAndLocate)
+{
+  const std::string file = scenes + "/block_graded.yaml";
+  const std::string text = read_text(file);
+  const Scene plain = parse_scene(text, file, scenes);
+  const Scene set = parse_scene(text, file, scenes,
+                                {"time.step=0.02", "parts[0].material.parameters.mu=20",
+                                 "mesh.set.refinement=2", "element.fbar=true",
+                                 "element.degree=1", "solver.linear=gmres-gamg"});
+  EXPECT_DOUBLE_EQ(plain.time.dt, 0.01);
+  EXPECT_DOUBLE_EQ(set.time.dt, 0.02);
+  EXPECT_DOUBLE_EQ(plain.parts[0].parameters["mu"], 10.0);
+  EXPECT_DOUBLE_EQ(set.parts[0].parameters["mu"], 20.0);
+  EXPECT_TRUE(set.parts[0].parameters.explicitly_set("mu"));
+  EXPECT_DOUBLE_EQ(set.mesh.numbers.at("refinement"), 2.0);
+  EXPECT_TRUE(set.mesh.fbar and !plain.mesh.fbar);
+  EXPECT_EQ(set.newton.linear_solver, "gmres-gamg"); // a section the file does not have
+  EXPECT_EQ(set.overrides.size(), 6u);
+  EXPECT_NE(set.physics, plain.physics); // a checkpoint of one does not resume the other
+
+  auto message = [&](const std::string& assignment)
+  {
+    try
+    {
+      parse_scene(text, file, scenes, {assignment});
+    }
+    catch (const InputError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("(read without error)");
+  };
+  for (const auto& [assignment, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"time.stpe=1", "did you mean 'step'"},
+           {"parts[1].name=x", "parts[1] does not exist"},
+           {"parts.name=x", "is a list: name an item, parts[N].name"},
+           {"time[0]=1", "'time' is not a list"},
+           {"time.step=", "no value"},
+           {"=3", "no key"},
+           {"time..step=3", "empty name"},
+           {"parts[x].name=a", "not a list index"},
+           {"parts[0].material.parameters.kappa=0", "must be > 0"},
+           {"element.degree=3", "integer from 1 to 2"}})
+  {
+    const std::string m = message(assignment);
+    EXPECT_EQ(m.rfind("--set " + assignment, 0), 0u) << assignment << ": " << m;
+    EXPECT_NE(m.find(expected), std::string::npos) << assignment << ": " << m;
+  }
+}

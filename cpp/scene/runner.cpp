@@ -5,6 +5,7 @@
 #include "../fem/boundary.h"
 #include "../fem/fibres.h"
 #include "../fem/muscle_problem.h"
+#include "../fem/point_probe.h"
 #include "../fem/uniform_constraint.h"
 #include "../io/gmsh_mesh.h"
 #include "../io/plotting.h"
@@ -487,6 +488,24 @@ void run_scene(const Scene& scene, const RunOptions& options)
             return global;
           });
       break;
+    case K::point:
+    {
+      auto probe = std::make_shared<PointProbe>(problem.u(), q.at);
+      const double size = std::cbrt(volume0 / std::max<std::int64_t>(gm.num_cells, 1));
+      if (probe->distance() > 0.5 * size)
+        throw InputError(q.where.text() + ".at: (" + std::to_string(q.at[0]) + ", "
+                         + std::to_string(q.at[1]) + ", " + std::to_string(q.at[2])
+                         + ") lies " + std::to_string(probe->distance())
+                         + " mm outside the body, more than half an element; the nearest "
+                           "material point is ("
+                         + std::to_string(probe->point()[0]) + ", "
+                         + std::to_string(probe->point()[1]) + ", "
+                         + std::to_string(probe->point()[2]) + ")");
+      const int c = q.component;
+      const double offset = q.position ? probe->point()[c] : 0.0;
+      measure.push_back([probe, c, offset] { return offset + probe->displacement()[c]; });
+      break;
+    }
     }
   }
 
@@ -511,6 +530,9 @@ void run_scene(const Scene& scene, const RunOptions& options)
   built.erase("part");
   built["axial_constraint_unknown"] = constraint != nullptr;
   built["mass_matrix"] = false;
+  built["element"] = {{"cell", mesh::to_string(mesh->topology().cell_type())},
+                      {"degree", scene.mesh.degree},
+                      {"fbar", scene.mesh.fbar}};
   built["unknowns"] = unknowns;
   if (body.size() > 1)
     built["parts"] = built_parts;
@@ -800,7 +822,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
         {"timings", {{"setup_s", setup_time},
                      {"solve_s", stepping_time - output_time},
                      {"output_s", output_time}}},
-        {"fields", scene.output.fields ? fields_path : ""}};
+        {"fields", scene.output.fields ? fields_path : ""},
+        {"overrides", scene.overrides}};
     for (std::size_t k = 0; k < last.size(); ++k)
       summary["final"][scene.output.series[k].name] = last[k];
     if (!assembly.is_null())

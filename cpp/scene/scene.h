@@ -116,12 +116,15 @@ struct SeriesQuantity
     displacement, ///< mean displacement of a surface's nodes [mm]
     stretch_ratio,///< 1 + displacement / length
     volume_change,///< V/V0 - 1
-    min_J         ///< smallest J at the quadrature points
+    min_J,        ///< smallest J at the quadrature points
+    point         ///< displacement (or position) of the material point nearest `at` [mm]
   } kind;
   std::string name, surface;
   int component = 2;
   double length = 1; ///< stretch_ratio
   double sign = 1;   ///< reaction: +1 force on the body by the support
+  std::array<double, 3> at = {0, 0, 0}; ///< point: reference coordinates [mm]
+  bool position = false; ///< point: x + u instead of u
   SceneLocation where;
 };
 
@@ -152,6 +155,7 @@ struct Scene
   std::string file;   ///< the scene file
   std::string title;
   std::string text;   ///< verbatim
+  std::vector<std::string> overrides; ///< the command line's --set KEY=VALUE, in order
   /// mesh, element, parts and boundary as read: what a checkpoint must match
   /// (time, solver and output settings may change between a stop and --resume)
   std::string physics;
@@ -165,12 +169,16 @@ struct Scene
 };
 
 /// Read and check a scene (nothing is meshed or solved).  Every mistake is an
-/// InputError "FILE:LINE: KEY: what is wrong; what is allowed".
-Scene read_scene(const std::string& path);
+/// InputError "FILE:LINE: KEY: what is wrong; what is allowed".  `overrides`
+/// ("KEY=VALUE", KEY a dotted path with list indices such as
+/// parts[0].material.parameters.kappa) replace or add values before the scene
+/// is checked, with the same checks; their mistakes are located at "--set ...".
+Scene read_scene(const std::string& path, const std::vector<std::string>& overrides = {});
 
 /// The same from text; `name` is used in messages and relative paths are
 /// resolved against `directory`.
 Scene parse_scene(const std::string& text, const std::string& name,
-                  const std::string& directory);
+                  const std::string& directory,
+                  const std::vector<std::string>& overrides = {});
 
 } // namespace muscle

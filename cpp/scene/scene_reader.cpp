@@ -58,15 +58,28 @@ double TimeFunction::operator()(double t, double model_factor) const
 
 namespace
 {
+/// Where a scene's values come from: the file, and the command line's
+/// `--set KEY=VALUE` for the keys it replaced.
+struct Source
+{
+  std::string file;
+  std::map<std::string, std::string> overrides; ///< dotted key -> "--set KEY=VALUE"
+};
+
 /// A YAML node and where it is: every accessor checks and reports in place.
 class Entry
 {
 public:
-  Entry(YAML::Node node, std::string key, const std::string& file, int parent_line)
-      : _node(node), _key(std::move(key)), _file(file),
+  Entry(YAML::Node node, std::string key, const Source& source, int parent_line)
+      : _node(node), _key(std::move(key)), _source(source),
         _line(node.IsDefined() and node.Mark().line >= 0 ? node.Mark().line + 1
                                                          : parent_line)
   {
+    if (auto it = source.overrides.find(_key); it != source.overrides.end())
+    {
+      _origin = &it->second;
+      _line = 0;
+    }
   }
 
   bool defined() const { return _node.IsDefined() and !_node.IsNull(); }
@@ -75,7 +88,7 @@ public:
   bool is_scalar() const { return _node.IsScalar(); }
   const std::string& key() const { return _key; }
 
-  SceneLocation where() const { return {_file, _line, _key}; }
+  SceneLocation where() const { return {_origin ? *_origin : _source.file, _line, _key}; }
 
   [[noreturn]] void fail(const std::string& what) const
   {
@@ -97,12 +110,12 @@ public:
   Entry operator[](const std::string& name) const
   {
     return Entry(_node.IsMap() ? _node[name] : YAML::Node(YAML::NodeType::Undefined),
-                 _key.empty() ? name : _key + "." + name, _file, _line);
+                 _key.empty() ? name : _key + "." + name, _source, _line);
   }
 
   Entry at(std::size_t i) const
   {
-    return Entry(_node[i], _key + "[" + std::to_string(i) + "]", _file, _line);
+    return Entry(_node[i], _key + "[" + std::to_string(i) + "]", _source, _line);
   }
   std::size_t size() const { return _node.size(); }
 
@@ -118,7 +131,7 @@ public:
       const std::string k = it->first.Scalar();
       if (std::find(allowed.begin(), allowed.end(), k) == allowed.end())
       {
-        Entry child(it->second, _key.empty() ? k : _key + "." + k, _file,
+        Entry child(it->second, _key.empty() ? k : _key + "." + k, _source,
                     it->first.Mark().line + 1);
         child.fail("unknown key '" + k + "'" + did_you_mean(k, allowed)
                    + "; allowed here: " + join(allowed));
@@ -228,9 +241,133 @@ public:
 private:
   YAML::Node _node;
   std::string _key;
-  const std::string& _file;
+  const Source& _source;
+  const std::string* _origin = nullptr; ///< the --set that gave the value, if one did
   int _line;
 };
+
+/// One step of a dotted scene path: a key, or an index into a list.
+struct PathStep
+{
+  std::string key;
+  long index = -1;
+};
+
+/// "parts[0].material.parameters.kappa" -> parts, [0], material, parameters, kappa
+std::vector<PathStep> split_path(const std::string& path, const std::string& origin)
+{
+  std::vector<PathStep> steps;
+  std::size_t i = 0;
+  auto bad = [&](const std::string& what) -> InputError
+  { return InputError(origin + ": " + what + "; a key is a dotted path such as "
+                      "parts[0].material.parameters.kappa or time.step"); };
+  while (i < path.size())
+  {
+    const std::size_t end = path.find_first_of(".[", i);
+    const std::string key = path.substr(i, end == std::string::npos ? end : end - i);
+    if (key.empty())
+      throw bad("empty name in '" + path + "'");
+    steps.push_back({key});
+    i = end == std::string::npos ? path.size() : end;
+    while (i < path.size() and path[i] == '[')
+    {
+      const std::size_t close = path.find(']', i);
+      const std::string digits
+          = path.substr(i + 1, close == std::string::npos ? close : close - i - 1);
+      if (close == std::string::npos or digits.empty()
+          or digits.find_first_not_of("0123456789") != std::string::npos or digits.size() > 6)
+        throw bad("'" + path.substr(i) + "' is not a list index [N]");
+      steps.push_back({"", std::stol(digits)});
+      i = close + 1;
+    }
+    if (i < path.size())
+    {
+      if (path[i] != '.' or i + 1 == path.size())
+        throw bad("unexpected '" + path.substr(i) + "'");
+      ++i;
+    }
+  }
+  if (steps.empty())
+    throw bad("no key");
+  return steps;
+}
+
+/// Replace (or add) the value at a dotted path of the scene's YAML tree.  A
+/// key that the scene may not have is left to the reader, which names the
+/// nearest valid one; a path through a missing list or a scalar stops here.
+void apply_override(YAML::Node& root, const std::string& assignment, Source& source)
+{
+  const std::string origin = "--set " + assignment;
+  const std::size_t eq = assignment.find('=');
+  if (eq == std::string::npos)
+    throw InputError(origin + ": expected KEY=VALUE, e.g. time.step=0.01");
+  const std::string path = assignment.substr(0, eq);
+  const std::vector<PathStep> steps = split_path(path, origin);
+  YAML::Node value;
+  try
+  {
+    value = YAML::Load(assignment.substr(eq + 1));
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw InputError(origin + ": the value is not valid YAML: " + e.msg);
+  }
+  if (!value.IsDefined() or value.IsNull())
+    throw InputError(origin + ": no value after '='");
+
+  YAML::Node node;
+  node.reset(root);
+  std::string reached; // the dotted path walked so far, for messages
+  for (std::size_t k = 0; k < steps.size(); ++k)
+  {
+    const PathStep& s = steps[k];
+    const bool last = k + 1 == steps.size();
+    const std::string here = s.index >= 0 ? reached + "[" + std::to_string(s.index) + "]"
+                                          : (reached.empty() ? s.key : reached + "." + s.key);
+    if (s.index >= 0)
+    {
+      if (!node.IsSequence())
+        throw InputError(origin + ": '" + reached + "' is not a list in the scene");
+      if (s.index >= static_cast<long>(node.size()))
+        throw InputError(origin + ": '" + reached + "' has " + std::to_string(node.size())
+                         + " items, so " + here + " does not exist (indices start at 0)");
+      if (last)
+        node[s.index] = value;
+      else
+      {
+        YAML::Node child = node[s.index];
+        node.reset(child);
+      }
+    }
+    else
+    {
+      if (node.IsNull() or !node.IsDefined())
+        node = YAML::Node(YAML::NodeType::Map);
+      if (node.IsSequence())
+        throw InputError(origin + ": '" + reached + "' is a list: name an item, " + reached
+                         + "[N]." + s.key);
+      if (!node.IsMap())
+        throw InputError(origin + ": '" + reached + "' is a value, not a mapping with keys");
+      if (last)
+        node[s.key] = value;
+      else
+      {
+        if (!node[s.key] and steps[k + 1].index >= 0)
+        {
+          std::vector<std::string> keys;
+          for (auto it = node.begin(); it != node.end(); ++it)
+            keys.push_back(it->first.Scalar());
+          throw InputError(origin + ": the scene has no list '" + here + "'"
+                           + did_you_mean(s.key, keys));
+        }
+        YAML::Node child = node[s.key];
+        node.reset(child);
+      }
+    }
+    reached = here;
+  }
+  source.overrides[path] = origin;
+}
 
 int parse_component(const Entry& e)
 {
@@ -373,7 +510,13 @@ void read_material(const Entry& e, Part& part, const std::string& directory)
   }
   catch (const InputError& error)
   {
-    (p.defined() ? p : e).fail(error.what());
+    // at the offending value where the scene (or a --set) gave it
+    const std::string message = error.what();
+    if (p.defined())
+      for (const std::string& name : p.keys())
+        if (message.rfind("parameter " + name + " = ", 0) == 0)
+          p[name].fail(message);
+    (p.defined() ? p : e).fail(message);
   }
 }
 
@@ -530,12 +673,13 @@ BoundaryCondition read_condition(const Entry& e)
 
 SeriesQuantity read_quantity(const Entry& e)
 {
-  e.require_map({"name", "quantity", "surface", "component", "length", "side"});
+  e.require_map({"name", "quantity", "surface", "component", "length", "side", "at", "of"});
   SeriesQuantity q;
   q.where = e.where();
+  // in the order of SeriesQuantity::Kind
   const std::vector<std::string> kinds = {"activation", "reaction", "section_force",
                                           "displacement", "stretch_ratio", "volume_change",
-                                          "min_J"};
+                                          "min_J", "point"};
   const std::string kind = e.required("quantity").choice(kinds);
   q.kind = static_cast<SeriesQuantity::Kind>(
       std::find(kinds.begin(), kinds.end(), kind) - kinds.begin());
@@ -547,10 +691,26 @@ SeriesQuantity read_quantity(const Entry& e)
     q.surface = e.required("surface").text();
     q.component = parse_component(e.required("component"));
   }
+  else if (kind == "point")
+  {
+    if (e["surface"].defined())
+      e["surface"].fail("'point' is measured at a point ('at: [x, y, z]'); remove 'surface'");
+    q.component = parse_component(e.required("component"));
+    const Entry at = e.required("at");
+    if (!at.is_sequence() or at.size() != 3)
+      at.fail("expected the reference coordinates [x, y, z] in mm, found " + at.shown());
+    for (std::size_t d = 0; d < 3; ++d)
+      q.at[d] = at.at(d).number();
+    q.position = e["of"].defined() and e["of"].choice({"displacement", "position"}) == "position";
+  }
   else
     for (const char* k : {"surface", "component"})
       if (e[k].defined())
         e[k].fail("'" + kind + "' is not measured on a surface; remove '" + k + "'");
+  if (kind != "point")
+    for (const char* k : {"at", "of"})
+      if (e[k].defined())
+        e[k].fail("'" + std::string(k) + "' goes with the point quantity only");
   if (kind == "stretch_ratio")
     q.length = e.required("length").positive(1);
   else if (e["length"].defined())
@@ -564,7 +724,7 @@ SeriesQuantity read_quantity(const Entry& e)
 } // namespace
 
 Scene parse_scene(const std::string& text, const std::string& name,
-                  const std::string& directory)
+                  const std::string& directory, const std::vector<std::string>& overrides)
 {
   YAML::Node root;
   try
@@ -578,7 +738,13 @@ Scene parse_scene(const std::string& text, const std::string& name,
   Scene scene;
   scene.file = name;
   scene.text = text;
-  const Entry top(root, "", name, 1);
+  scene.overrides = overrides;
+  Source source{name, {}};
+  if (!overrides.empty() and !root.IsMap())
+    throw InputError(name + ": a scene is a mapping; --set needs one");
+  for (const std::string& assignment : overrides)
+    apply_override(root, assignment, source);
+  const Entry top(root, "", source, 1);
   if (!top.is_map())
     top.fail("a scene is a mapping with keys title, mesh, element, parts, boundary, time, "
              "solver, output; found " + top.shown());
@@ -748,7 +914,7 @@ Scene parse_scene(const std::string& text, const std::string& name,
   return scene;
 }
 
-Scene read_scene(const std::string& path)
+Scene read_scene(const std::string& path, const std::vector<std::string>& overrides)
 {
   std::ifstream in(path);
   if (!std::filesystem::is_regular_file(path) or !in)
@@ -757,7 +923,7 @@ Scene read_scene(const std::string& path)
   text << in.rdbuf();
   const std::string directory
       = std::filesystem::absolute(path).parent_path().string();
-  return parse_scene(text.str(), path, directory);
+  return parse_scene(text.str(), path, directory, overrides);
 }
 
 } // namespace muscle

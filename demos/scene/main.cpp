@@ -1,7 +1,7 @@
 // muscle-run: run a muscle scene described in a YAML file.
 //
 //   muscle-run SCENE.yaml [--out DIR] [--resume] [--quiet] [--check]
-//              [--t-end T] [--measure-assembly N] [PETSc options]
+//              [--set KEY=VALUE ...] [--t-end T] [--measure-assembly N] [PETSc options]
 //
 // Reads and checks the whole scene before building anything, builds only what
 // the scene needs, and writes DIR/series.csv, fields.xdmf, summary.json,
@@ -34,6 +34,13 @@ int main(int argc, char** argv)
     app.add_flag("--quiet", options.quiet, "no progress lines");
     app.add_flag("--check", options.check_only,
                  "read the scene and build the mesh, surfaces and forms; solve nothing");
+    std::vector<std::string> overrides;
+    app.add_option("--set", overrides,
+                   "replace a scene value, KEY a dotted path with list indices, e.g. "
+                   "--set parts[0].material.parameters.kappa=100 --set time.step=0.01 "
+                   "(checked as in the file; repeat for several)")
+        ->expected(1)
+        ->take_all();
     double t_end = -1;
     app.add_option("--t-end", t_end, "stop at this time instead of the scene's time.end "
                    "(a short look at a long scene)");
@@ -42,7 +49,7 @@ int main(int argc, char** argv)
                    "passive forms before the run");
     if (!parse_command_line(app, std::move(args)))
       return 0;
-    Scene scene = read_scene(path);
+    Scene scene = read_scene(path, overrides);
     if (t_end != -1)
     {
       if (!(t_end > 0))

@@ -17,19 +17,14 @@ contraction"); parity compares two parallel decompositions.
 import argparse
 import csv
 import json
-import math
 import os
 import subprocess
 import sys
 
 MODELS = ["ble", "wkm", "giant", "combi"]
-failures = []
-
-
-def check(condition, message):
-    print(("ok    " if condition else "FAIL  ") + message, flush=True)
-    if not condition:
-        failures.append(message)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                                "support"))
+from checks import all_finite, check, failures, finite_json  # noqa: E402
 
 
 def fusiform(build, out, options, ranks=1):
@@ -68,7 +63,7 @@ def run(args):
               f"(exit {code}, {summary.get('steps')} steps, {summary.get('cutbacks')} cutbacks)")
         check(series and abs(float(series[-1]["t"]) - 0.15) < 1e-9,
               f"{args.model} {case}: series reaches t = 0.15 s")
-        finite = all(math.isfinite(float(v)) for row in series for v in row.values())
+        finite = all_finite(series)
         check(finite, f"{args.model} {case}: every value in series.csv is finite")
         forces[case] = [(float(r["F33"]), float(r["F33_origin"])) for r in series]
     iso = forces["isometric"]
@@ -152,13 +147,20 @@ def failure(args):
     check("PETSC ERROR" not in result.stderr and "Traceback" not in result.stderr,
           "no PETSc stack trace")
     summary = json.load(open(os.path.join(out, "summary.json")))
-    check(summary.get("completed") is False and summary.get("cutbacks", 0) >= 0,
-          "summary.json written with completed = false")
+    check(summary.get("completed") is False, "summary.json written with completed = false")
+    # --max-cutbacks 2: the step and its two halvings, each failed
+    failure = summary.get("failure", {})
+    check(failure.get("cutbacks") == 3 and failure.get("t_converged") == 0.0,
+          f"the failure counts 3 failed attempts from t = 0 (got {failure})")
     check(os.path.exists(os.path.join(out, "fields.xdmf")), "fields of the last converged state")
     with open(os.path.join(out, "series.csv")) as f:
-        rows = list(csv.DictReader(f))
-    check(all(math.isfinite(float(v)) for r in rows for v in r.values()),
-          "no NaN in series.csv")
+        reader = csv.DictReader(f)
+        rows = list(reader)
+    # no step converged: a header and no rows, one row per converged step
+    check(reader.fieldnames is not None and "t" in reader.fieldnames and "F33" in reader.fieldnames,
+          "series.csv has its header")
+    check(len(rows) == summary.get("steps") == 0, f"one row per converged step ({len(rows)} rows)")
+    check(finite_json(summary), "no NaN (null) in summary.json")
     # a stalled iterative linear solver gets advice about the linear solver, not the step
     command = [os.path.join(args.build, "fusiform"), "--model", "combi", "--refinement", "1",
                "--dt", "0.05", "--max-cutbacks", "1", "--linear-solver", "gmres-gamg",

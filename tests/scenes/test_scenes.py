@@ -8,7 +8,8 @@
     test_scenes.py parts --build DIR     several parts: a split body equals the whole, 1 = 2 ranks
     test_scenes.py anti_locking --build DIR  BLE's anti-locking Q1 against Q1 and Q2 (block)
     test_scenes.py fbar --build DIR          F-bar Q1 (COMBI, GIANT) against Q1 and Q2 (block)
-    test_scenes.py extremes --build DIR  penalty x1000, activation x2, one large step,
+    test_scenes.py overrides --build DIR     --set KEY=VALUE against the edited file; point probes
+    test_scenes.py extremes --build DIR  penalty x3..x100, activation x2, one large step,
                                          nearly degenerate elements: converge or stop cleanly
 
 References are independent of the code under test: the section force must equal
@@ -28,13 +29,9 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENES = os.path.join(ROOT, "demos", "scenes")
-failures = []
-
-
-def check(condition, message):
-    print(("ok    " if condition else "FAIL  ") + message, flush=True)
-    if not condition:
-        failures.append(message)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                                "support"))
+from checks import all_finite, check, failures, finite_json  # noqa: E402
 
 
 def run(build, args, ranks=1, **kw):
@@ -47,10 +44,6 @@ def run(build, args, ranks=1, **kw):
 def read_series(path):
     with open(path) as f:
         return list(csv.DictReader(f))
-
-
-def all_finite(rows):
-    return all(math.isfinite(float(v)) for r in rows for v in r.values())
 
 
 # ---------------------------------------------------------------------------
@@ -370,15 +363,16 @@ def resume(build):
 # cutbacks, or stops cleanly (exit 3, completed false, failure counts, the last
 # converged state written); no NaN ever reaches an output file.
 # ---------------------------------------------------------------------------
-PRESET_KAPPA = {"ble": None, "wkm": 10, "giant": 3, "combi": 10}
+# A stiffer penalty than the presets (BLE kappa 1e4 kPa, the Ehret models 1000):
+# x100 for BLE, x10 for WKM and COMBI, x3 for GIANT.
+STIFF_PENALTY = {"ble": 1e6, "wkm": 1e4, "giant": 3e3, "combi": 1e4}
 
 
 def extreme_scene(model, kind):
     mesh = f"file: {ROOT}/meshes/block.geo"
     parameters, scale, end, step = "{}", 1, 0.02, 0.005
-    if kind == "penalty_x1000":
-        kappa = PRESET_KAPPA[model]
-        parameters = "{kappa: %g}" % (1000 * kappa) if kappa else "{kappa: 1000000}"
+    if kind == "stiff_penalty":
+        parameters = "{kappa: %g}" % STIFF_PENALTY[model]
     elif kind == "activation_x2":
         scale = 2
     elif kind == "one_large_step":
@@ -386,9 +380,9 @@ def extreme_scene(model, kind):
     elif kind == "degenerate_elements":
         mesh = f"file: {ROOT}/meshes/fusiform.geo\n  set: {{refinement: 1, core: 0.95}}"
         end, step = 0.01, 0.01
-    elif kind == "fusiform_penalty_x1000":  # fails (docs/stability.md): the failure path
+    elif kind == "fusiform_stiff_penalty":  # fails (docs/stability.md): the failure path
         mesh = f"file: {ROOT}/meshes/fusiform.geo\n  set: {{refinement: 1}}"
-        parameters = "{kappa: %g}" % (1000 * PRESET_KAPPA[model])
+        parameters = "{kappa: %g}" % STIFF_PENALTY[model]
         end, step = 0.01, 0.01
     return f"""title: {model} {kind}
 mesh:
@@ -410,20 +404,12 @@ output:
 """
 
 
-def finite_json(value):
-    if isinstance(value, dict):
-        return all(finite_json(v) for v in value.values())
-    if isinstance(value, list):
-        return all(finite_json(v) for v in value)
-    return not isinstance(value, float) or math.isfinite(value)
-
-
 def extremes(build):
-    kinds = ["penalty_x1000", "activation_x2", "one_large_step", "degenerate_elements"]
+    kinds = ["stiff_penalty", "activation_x2", "one_large_step", "degenerate_elements"]
     outcomes = []
     with tempfile.TemporaryDirectory() as tmp:
         cases = [(m, k) for m in ["ble", "wkm", "giant", "combi"] for k in kinds]
-        for model, kind in cases + [("combi", "fusiform_penalty_x1000")]:
+        for model, kind in cases + [("combi", "fusiform_stiff_penalty")]:
                 path = os.path.join(tmp, f"{model}_{kind}.yaml")
                 with open(path, "w") as f:
                     f.write(extreme_scene(model, kind))
@@ -448,7 +434,7 @@ def extremes(build):
                     outcome = (f"stopped cleanly at t = {summary['failure']['t_converged']:.3g} s after "
                                f"{summary['failure']['cutbacks']} cutbacks")
                 outcomes.append((what, outcome))
-                if kind == "fusiform_penalty_x1000":
+                if kind == "fusiform_stiff_penalty":
                     check(r.returncode == 3, f"{what}: fails as the stability report says")
                 check(ok, f"{what}: {outcome}; outputs finite: {clean}")
     print("\n".join(f"  {w:32s} {o}" for w, o in outcomes))
@@ -633,16 +619,104 @@ def parity(build):
             compare(one, mixed, "1 rank killed, resumed on 2")
 
 
+# ---------------------------------------------------------------------------
+# --set KEY=VALUE and the point probe
+# ---------------------------------------------------------------------------
+PROBES = ("    - {name: tip_z, quantity: point, at: [5, 5, 30], component: z}\n"
+          "    - {name: corner_x, quantity: point, at: [10, 10, 30], component: x, of: position}\n"
+          "    - {name: inside_z, quantity: point, at: [3.3, 7.1, 12.9], component: z}\n")
+
+
+def overrides(build):
+    """--set gives what the same edit of the file gives, is recorded in summary.json,
+    and its mistakes are located at the --set; a point probe on the free block's top
+    (which the uniform-axial constraint moves as one) equals the surface's mean
+    displacement, and 1 and 2 ranks probe the same value."""
+    base = absolute_paths(open(os.path.join(SCENES, "block_graded.yaml")).read())
+    base = base.replace("    - {name: min_J, quantity: min_J}\n",
+                        "    - {name: min_J, quantity: min_J}\n" + PROBES)
+    edited = (base.replace("time: {end: 0.1, step: 0.01}", "time: {end: 0.02, step: 0.005}")
+              .replace("material: {model: ble}", "material: {model: ble, parameters: {mu: 20}}")
+              .replace("element: {degree: 2}", "element: {degree: 1, fbar: true}"))
+    check(edited.count("mu: 20") == 1 and "0.005" in edited and "fbar" in edited,
+          "the hand-edited scene differs from the base in the three values")
+    sets = ["--set", "time.end=0.02", "--set", "time.step=0.005",
+            "--set", "parts[0].material.parameters.mu=20",
+            "--set", "element.degree=1", "--set", "element.fbar=true"]
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, text in (("base", base), ("edited", edited)):
+            with open(os.path.join(tmp, name + ".yaml"), "w") as f:
+                f.write(text)
+        results = {}
+        for label, scene, extra, ranks in (("edited", "edited", [], 1), ("set", "base", sets, 1),
+                                           ("set_2_ranks", "base", sets, 2)):
+            out = os.path.join(tmp, label)
+            r = run(build, [os.path.join(tmp, scene + ".yaml"), "--out", out, "--quiet"] + extra,
+                    ranks=ranks)
+            check(r.returncode == 0, f"{label}: runs (exit {r.returncode}) {r.stderr[-300:]}")
+            if r.returncode != 0:
+                return
+            results[label] = (json.load(open(os.path.join(out, "summary.json"))),
+                              read_series(os.path.join(out, "series.csv")))
+        edited_summary, edited_rows = results["edited"]
+        set_summary, set_rows = results["set"]
+        columns = [c for c in edited_rows[0] if c not in ("wall_time", "residual")]
+        same = len(edited_rows) == len(set_rows) == 4 and all(
+            a[c] == b[c] for a, b in zip(edited_rows, set_rows) for c in columns)
+        check(same, f"--set gives the hand-edited scene's series to the last digit "
+                    f"({len(set_rows)} rows)")
+        check(set_summary.get("overrides") == [a for a in sets if a != "--set"]
+              and edited_summary.get("overrides") == [],
+              f"summary.json records the overrides ({set_summary.get('overrides')})")
+        element = set_summary["built"].get("element", {})
+        check(element.get("fbar") is True and element.get("degree") == 1,
+              f"--set element.fbar=true builds F-bar ({element})")
+        final = set_summary["final"]
+        top = 30 * (final["epsilon"] - 1)
+        check(abs(final["tip_z"] - top) <= 1e-9 * abs(top),
+              f"probe at the top centre {final['tip_z']:.12f} = top mean displacement {top:.12f}")
+        check(final["corner_x"] == 10.0, f"position probe at the held corner: x = {final['corner_x']}")
+        check(final["inside_z"] < 0 and final["inside_z"] > top,
+              f"an interior probe moves between the clamp and the top ({final['inside_z']:.6f})")
+        two = results["set_2_ranks"][0]["final"]
+        worst = max(abs(two[k] - final[k]) / max(abs(final[k]), 1e-12)
+                    for k in ("tip_z", "corner_x", "inside_z"))
+        check(worst <= 1e-8, f"1 and 2 ranks probe the same values (relative {worst:.1e})")
+
+        # mistakes: exit 2, located at the --set, before anything is built
+        path = os.path.join(tmp, "base.yaml")
+        for assignment, expected in (
+                ("time.stp=0.01", "did you mean 'step'"),
+                ("parts[2].material.model=ble", "parts[2] does not exist"),
+                ("parts[0].material.parameters.kapa=3", "did you mean 'kappa'"),
+                ("parts[0].material.parameters.mu=-1", "must be >= 0"),
+                ("time.step=abc", "'abc' is not a number"),
+                ("prts[0].name=x", "did you mean 'parts'"),
+                ("time.step", "expected KEY=VALUE"),
+                ("time.end.x=1", "is a value, not a mapping")):
+            r = run(build, [path, "--out", os.path.join(tmp, "bad"), "--check", "--set", assignment])
+            message = r.stderr.strip()
+            check(r.returncode == 2 and f"--set {assignment}" in message and expected in message,
+                  f"--set {assignment}: exit {r.returncode}, '{message[-160:]}'")
+        # a probe far outside the body is a mistake too
+        with open(os.path.join(tmp, "far.yaml"), "w") as f:
+            f.write(base.replace("at: [5, 5, 30]", "at: [5, 5, 90]"))
+        r = run(build, [os.path.join(tmp, "far.yaml"), "--out", os.path.join(tmp, "far"), "--check"])
+        check(r.returncode == 2 and "outside the body" in r.stderr
+              and "output.series[4].at" in r.stderr,
+              f"a probe outside the body: exit {r.returncode}, '{r.stderr.strip()[-200:]}'")
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser()
     parser.add_argument("what", choices=["demos", "broken", "resume", "parity", "extremes", "parts",
-                                           "anti_locking", "fbar"])
+                                           "anti_locking", "fbar", "overrides"])
     parser.add_argument("--build", required=True)
     args = parser.parse_args()
     os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
     os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
     {"demos": demos, "broken": broken, "resume": resume, "parity": parity,
      "extremes": extremes, "parts": parts, "anti_locking": anti_locking,
-     "fbar": fbar}[args.what](args.build)
+     "fbar": fbar, "overrides": overrides}[args.what](args.build)
     print(f"{len(failures)} failure(s)")
     sys.exit(1 if failures else 0)
