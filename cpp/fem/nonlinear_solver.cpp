@@ -1,5 +1,6 @@
 #include "nonlinear_solver.h"
 #include "linear_failure.h"
+#include "../common/errors.h"
 
 #include "fbar_unknowns.h"
 #include "uniform_constraint.h"
@@ -105,6 +106,33 @@ double finite_norm(Mat A)
 }
 } // namespace
 
+const std::vector<std::string>& NewtonOptions::linear_solvers()
+{
+  static const std::vector<std::string> names = {"lu", "gmres-hypre", "gmres-gamg"};
+  return names;
+}
+
+const std::vector<std::string>& NewtonOptions::line_searches()
+{
+  static const std::vector<std::string> names = {"cp", "bt", "basic", "l2"};
+  return names;
+}
+
+void NewtonOptions::validate() const
+{
+  auto check = [](const char* option, const std::string& value,
+                  const std::vector<std::string>& allowed)
+  {
+    if (std::find(allowed.begin(), allowed.end(), value) == allowed.end())
+      throw InputError(std::string(option) + " '" + value + "' is not allowed; allowed: "
+                       + join(allowed) + did_you_mean(value, allowed));
+  };
+  check("linear solver", linear_solver, linear_solvers());
+  check("line search", line_search, line_searches());
+  if (!(rtol > 0 and atol > 0 and linear_rtol > 0 and linear_rtol < 1))
+    throw InputError("Newton tolerances must be > 0 and the linear rtol below 1");
+}
+
 NonlinearSolver::NonlinearSolver(
     MuscleProblem& problem,
     std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs,
@@ -125,6 +153,7 @@ NonlinearSolver::NonlinearSolver(
       _b(_problem.V()->dofmap()->index_map, _problem.V()->dofmap()->index_map_bs()),
       _work(_b), _work2(_b)
 {
+  _options.validate();
   MuscleProblem& problem = _problem;
   auto V = problem.V();
   auto map = V->dofmap()->index_map;

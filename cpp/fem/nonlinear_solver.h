@@ -46,6 +46,12 @@ struct NewtonOptions
   /// max_iterations before the step is cut anyway.  0 disables.
   int stagnation_window = 5;
   double stagnation_reduction = 1e-3;
+
+  /// The names linear_solver and line_search accept.
+  static const std::vector<std::string>& linear_solvers();
+  static const std::vector<std::string>& line_searches();
+  /// InputError naming the option, its value and what is allowed.
+  void validate() const;
 };
 
 /// What one nonlinear solve did.

@@ -76,6 +76,11 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
   if (f.reason.find("DIVERGED_LINEAR_SOLVE") != std::string::npos)
     // a smaller step rarely rescues an iterative solver that stalls (BENCHMARKS.md)
     f.advice = linear_failure_advice(report.linear_failure);
+  else if (report.non_finite and global.value > 0)
+    // nothing inverted, yet the residual overflows: an input, not the step
+    f.advice = "the residual is not finite although no element inverts, so an input "
+               "overflows: check the activation scale, the loads and the material parameters "
+               "(a smaller time step cannot help)";
   else if (global.value <= 0)
     f.advice = "elements invert: use a smaller time step (--dt, scene time.step), a finer mesh, or "
                "quadratic elements";

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <gmsh.h>
 #include <sstream>
+#include <unistd.h>
 
 using namespace dolfinx;
 
@@ -57,6 +58,56 @@ mesh::CellType dolfinx_cell(int gmsh_type)
 }
 
 
+/// Before a .geo is meshed in 3-D: the number of cells estimated from its 1-D
+/// mesh (cells ~ bounding-box volume / h^3, h the median edge length, an
+/// over-estimate for non-box shapes) and a refusal when even a lean 4 KiB per
+/// cell (the F-bar COMBI fusiform takes ~30 KiB with GAMG, BENCHMARKS.md)
+/// exceeds this machine's memory -- a typo such as refinement 1000 would
+/// otherwise mesh for hours.
+void refuse_impossible_mesh(const std::string& path)
+{
+  gmsh::model::mesh::generate(1);
+  std::vector<int> types;
+  std::vector<std::vector<std::size_t>> tags, nodes;
+  gmsh::model::mesh::getElements(types, tags, nodes, 1, -1);
+  std::vector<std::size_t> node_tags;
+  std::vector<double> x, parametric;
+  gmsh::model::mesh::getNodes(node_tags, x, parametric, -1, -1, false, false);
+  std::map<std::size_t, std::size_t> index;
+  for (std::size_t i = 0; i < node_tags.size(); ++i)
+    index[node_tags[i]] = 3 * i;
+  std::vector<double> lengths;
+  for (std::size_t t = 0; t < types.size(); ++t)
+    for (std::size_t e = 0; e + 1 < nodes[t].size(); e += nodes[t].size() / tags[t].size())
+    {
+      const double* a = &x[index.at(nodes[t][e])];
+      const double* b = &x[index.at(nodes[t][e + 1])];
+      lengths.push_back(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
+    }
+  if (lengths.empty())
+    return;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  const double h = lengths[lengths.size() / 2];
+  double x0, y0, z0, x1, y1, z1;
+  gmsh::model::getBoundingBox(-1, -1, x0, y0, z0, x1, y1, z1);
+  if (!(h > 0))
+    return;
+  const double cells = (x1 - x0) * (y1 - y0) * (z1 - z0) / (h * h * h);
+  const double needed = 4096.0 * cells;
+  const double memory = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+  if (needed > memory)
+  {
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "%s: the mesh would have about %.3g cells (median edge %.3g mm in a %.3g x "
+                  "%.3g x %.3g mm box), at least %.3g GiB at 4 KiB per cell, more than this "
+                  "machine's %.3g GiB: lower the refinement (mesh.set)",
+                  path.c_str(), cells, h, x1 - x0, y1 - y0, z1 - z0, needed / 1073741824.0,
+                  memory / 1073741824.0);
+    throw InputError(text);
+  }
+}
+
 RawMesh read_on_root(const std::string& path, const std::map<std::string, double>& numbers)
 {
   if (!std::filesystem::exists(path))
@@ -79,7 +130,10 @@ RawMesh read_on_root(const std::string& path, const std::map<std::string, double
   {
     gmsh::open(path);
     if (std::filesystem::path(path).extension() == ".geo")
+    {
+      refuse_impossible_mesh(path);
       gmsh::model::mesh::generate(3);
+    }
 
     std::vector<std::size_t> node_tags;
     std::vector<double> coords, parametric;

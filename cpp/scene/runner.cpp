@@ -101,6 +101,16 @@ public:
     update(0.0, true);
   }
 
+  /// The largest value over every rank's cells (collective).
+  double largest() const
+  {
+    double local = 0, global = 0;
+    for (std::int32_t dof : _dofs)
+      local = std::max(local, _scale.x()->array()[dof]);
+    MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, _scale.function_space()->mesh()->comm());
+    return global;
+  }
+
   bool time_dependent() const
   {
     return (_spec.kind == ActivationScale::Kind::expression and _spec.formula->uses("t"))
@@ -287,7 +297,20 @@ void run_scene(const Scene& scene, const RunOptions& options)
   std::filesystem::create_directories(options.out);
 
   // Mesh with its named surfaces and volumes
-  const GmshMesh gm = read_gmsh(MPI_COMM_WORLD, scene.mesh.path, scene.mesh.numbers);
+  const GmshMesh gm = [&]
+  {
+    try
+    {
+      return read_gmsh(MPI_COMM_WORLD, scene.mesh.path, scene.mesh.numbers);
+    }
+    catch (const InputError& e)
+    {
+      // located at the scene's mesh key: the numbers that made it come from there
+      throw InputError((scene.mesh.numbers.empty() ? scene.mesh.where
+                                                    : scene.mesh.numbers_where).text()
+                       + ": " + e.what());
+    }
+  }();
   auto mesh = gm.mesh;
   auto surface = [&](const std::string& name, const SceneLocation& where)
   {
@@ -802,6 +825,20 @@ void run_scene(const Scene& scene, const RunOptions& options)
   }
 
   const double stepping_time = seconds_since(stepping_start);
+  if (failure and failure->reason.find("non-finite") != std::string::npos)
+  {
+    // an overflowing input, not the step, is the usual cause: name the largest
+    // activation scale (collective)
+    for (std::size_t p = 0; p < scales.size(); ++p)
+      if (scales[p])
+      {
+        char largest[32];
+        std::snprintf(largest, sizeof largest, "%.6g", scales[p]->largest());
+        failure->where += "; activation scale of part '" + scene.parts[p].name + "' up to "
+                          + largest + " ("
+                          + scene.parts[p].activation_scale.where.text() + ")";
+      }
+  }
   // The last converged state is kept whatever happened
   if (scene.output.surface)
   {

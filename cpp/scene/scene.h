@@ -132,6 +132,7 @@ struct MeshSpec
 {
   std::string path; ///< .geo or .msh, absolute
   std::map<std::string, double> numbers; ///< Gmsh -setnumber
+  SceneLocation numbers_where;           ///< of the numbers (mesh.set), if given
   std::string cell = "hex";
   int degree = 1;
   int quadrature_degree = -1;

@@ -771,6 +771,7 @@ Scene parse_scene(const std::string& text, const std::string& name,
       m["set"].fail("numbers can only be set for a .geo file");
     for (const std::string& k : m["set"].keys())
       scene.mesh.numbers[k] = m["set"][k].number();
+    scene.mesh.numbers_where = m["set"].where();
   }
   // the mesh by its resolved path: a copy of the scene elsewhere still matches
   scene.physics += "mesh: " + scene.mesh.path + "\n";
@@ -854,10 +855,10 @@ Scene parse_scene(const std::string& text, const std::string& name,
     s.require_map({"linear", "line_search", "rtol", "atol", "max_iterations",
                    "stagnation_window", "petsc"});
     scene.newton.linear_solver = s["linear"].defined()
-                                     ? s["linear"].choice({"lu", "gmres-hypre", "gmres-gamg"})
+                                     ? s["linear"].choice(NewtonOptions::linear_solvers())
                                      : "lu";
     if (s["line_search"].defined())
-      scene.newton.line_search = s["line_search"].choice({"cp", "bt", "basic", "l2"});
+      scene.newton.line_search = s["line_search"].choice(NewtonOptions::line_searches());
     scene.newton.rtol = s["rtol"].positive(scene.newton.rtol);
     scene.newton.atol = s["atol"].positive(scene.newton.atol);
     scene.newton.max_iterations = s["max_iterations"].integer(25, 1, 1000);

@@ -106,11 +106,14 @@ Settings parse(std::vector<std::string> args)
   app.add_option("--output-every", s.output_every, "write fields every N steps")
       ->capture_default_str();
   app.add_option("--linear-solver", s.newton.linear_solver,
-                 "lu (MUMPS), gmres-hypre or gmres-gamg")->capture_default_str();
+                 "lu (MUMPS), gmres-hypre or gmres-gamg")
+      ->check(CLI::IsMember(NewtonOptions::linear_solvers()))
+      ->capture_default_str();
   app.add_option("--linear-rtol", s.newton.linear_rtol,
                  "relative tolerance of the iterative linear solvers")->capture_default_str();
   app.add_option("--line-search", s.newton.line_search,
                  "PETSc line search: cp (energy-like, default here) or bt, basic, l2")
+      ->check(CLI::IsMember(NewtonOptions::line_searches()))
       ->capture_default_str();
   app.add_option("--max-cutbacks", s.max_cutbacks, "halvings of a failing step")
       ->capture_default_str();

@@ -171,6 +171,13 @@ def failure(args):
     check(result.returncode == 3 and "DIVERGED_LINEAR_SOLVE" in message,
           f"a linear-solver failure is reported as such (exit {result.returncode})")
     check("--linear-solver lu" in message, "the advice names the direct solver")
+    # options with a fixed set of values are checked where they are read
+    for option, value in (("--linear-solver", "auto"), ("--line-search", "newton"),
+                          ("--case", "relaxed"), ("--cell", "prism")):
+        result = subprocess.run([os.path.join(args.build, "fusiform"), option, value, "--out",
+                                 out + "_option"], capture_output=True, text=True)
+        check(result.returncode == 2 and value in result.stderr and "PETSC ERROR" not in result.stderr,
+              f"fusiform {option} {value}: exit {result.returncode}, {result.stderr.strip()[-120:]}")
 
 
 def main():

@@ -155,6 +155,8 @@ BROKEN = [
     ("anti-locking element for COMBI", F, "element: {degree: 1}",
      "element: {degree: 1, volumetric_quadrature_degree: 1}",
      ["element.volumetric_quadrature_degree", "BLE only", "combi"], True),
+    ("a mesh that cannot fit in memory", F, "set: {refinement: 1}", "set: {refinement: 1000}",
+     ["mesh", "cells", "GiB", "lower the refinement"], True),
     ("model misspelt", B, "model: ble", "model: bel", ["material.model", "'bel'", "did you mean 'ble'"], True),
     ("unknown top-level key", B, "time: {end", "tme: {end", ["unknown key 'tme'", "did you mean 'time'"], True),
     ("unknown parameter", B, "model: ble}", "model: ble, parameters: {kapa: 3}}",
@@ -698,6 +700,15 @@ def overrides(build):
             message = r.stderr.strip()
             check(r.returncode == 2 and f"--set {assignment}" in message and expected in message,
                   f"--set {assignment}: exit {r.returncode}, '{message[-160:]}'")
+        # an overflowing input is named as such, not blamed on the time step
+        r = run(build, [path, "--out", os.path.join(tmp, "overflow"), "--quiet",
+                        "--set", "parts[0].activation.scale.groups.lower=1e308",
+                        "--set", "time.end=0.005", "--set", "time.step=0.005",
+                        "--set", "time.max_cutbacks=1"])
+        message = r.stderr.strip()
+        check(r.returncode == 3 and "activation scale of part 'muscle' up to 1e+308" in message
+              and "an input overflows" in message and "smaller time step (" not in message,
+              f"an activation scale of 1e308: exit {r.returncode}, '{message[-300:]}'")
         # a probe far outside the body is a mistake too
         with open(os.path.join(tmp, "far.yaml"), "w") as f:
             f.write(base.replace("at: [5, 5, 30]", "at: [5, 5, 90]"))
