@@ -162,6 +162,8 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
                "--out", out]
     if fbar:
         command.append("--fbar")
+    elif cell == "hex" and degree == 1:
+        command.append("--no-fbar")  # plain Q1 (F-bar is the default there)
     if rtol is not None:
         command += ["--linear-rtol", repr(rtol)]
     for s in sets:

@@ -1,6 +1,8 @@
 // The quadrature-point activation kernels of WKM and GIANT against independent
 // maths: the paper's closed Lambert-W formula (Boost), the defining uniaxial
 // equations, and finite differences of the kernels' own values.
+#include "support/finite_differences.h"
+
 #include <material/activation_kernels.h>
 #include <material/material_point.h>
 #include <material/parameters.h>
@@ -38,12 +40,6 @@ double wkm_uniaxial_stress(double l, double omega, const EhretParameters& p)
             + std::exp(p.beta * (u.J - 1)) * u.dJ);
 }
 
-// 4th-order central differences
-template <typename F>
-double derivative(F&& f, double x, double h)
-{
-  return (-f(x + 2 * h) + 8 * f(x + h) - 8 * f(x - h) + f(x - 2 * h)) / (12 * h);
-}
 } // namespace
 
 TEST(WkmKernel, MatchesPaperLambertWFormula)
@@ -80,7 +76,7 @@ TEST(WkmKernel, DerivativeFromImplicitFunctionTheorem)
   const EhretParameters p = fitted();
   for (double l : {0.6, 0.75, 1.0, 1.2, 1.5, 1.8})
   {
-    const double fd = derivative([&](double s) { return wkm_omega(s, 64.68, p).value; },
+    const double fd = muscle::testing::central_at([&](double s) { return wkm_omega(s, 64.68, p).value; },
                                  l, 1e-4);
     EXPECT_NEAR(wkm_omega(l, 64.68, p).d1, fd, 1e-8 * std::max(1.0, std::abs(fd)))
         << "l=" << l;
@@ -174,8 +170,8 @@ TEST(GiantKernel, DerivativesFromImplicitDifferentiation)
     auto value = [&](double s) { return giant_omega(s, 64.68, p).value; };
     auto slope = [&](double s) { return giant_omega(s, 64.68, p).d1; };
     const OmegaTaylor w = giant_omega(l, 64.68, p);
-    const double d1 = derivative(value, l, 1e-4);
-    const double d2 = derivative(slope, l, 1e-4);
+    const double d1 = muscle::testing::central_at(value, l, 1e-4);
+    const double d2 = muscle::testing::central_at(slope, l, 1e-4);
     EXPECT_NEAR(w.d1, d1, 1e-7 * std::max(1.0, std::abs(d1))) << "l=" << l;
     EXPECT_NEAR(w.d2, d2, 1e-6 * std::max(1.0, std::abs(d2))) << "l=" << l;
   }

@@ -13,12 +13,14 @@ using namespace muscle;
 
 namespace
 {
-/// [[L, I], [I, 0]] with L the 1-D Laplacian on n unknowns: a zero diagonal
-/// in the second block, like the pressure block of a mixed method.
-Mat saddle_point(PetscInt n)
+/// The 1-D Laplacian on n unknowns, and -- saddle_point -- coupled by
+/// identities to n more unknowns with zero diagonal: [[L, I], [I, 0]], like the
+/// pressure block of a mixed method.
+Mat tridiagonal(PetscInt n, bool saddle_point)
 {
   Mat A;
-  MatCreateSeqAIJ(PETSC_COMM_SELF, 2 * n, 2 * n, 4, nullptr, &A);
+  MatCreateSeqAIJ(PETSC_COMM_SELF, saddle_point ? 2 * n : n, saddle_point ? 2 * n : n, 4,
+                  nullptr, &A);
   for (PetscInt i = 0; i < n; ++i)
   {
     MatSetValue(A, i, i, 2.0, INSERT_VALUES);
@@ -26,32 +28,19 @@ Mat saddle_point(PetscInt n)
       MatSetValue(A, i, i - 1, -1.0, INSERT_VALUES);
     if (i + 1 < n)
       MatSetValue(A, i, i + 1, -1.0, INSERT_VALUES);
-    MatSetValue(A, i, n + i, 1.0, INSERT_VALUES);
-    MatSetValue(A, n + i, i, 1.0, INSERT_VALUES);
-    MatSetValue(A, n + i, n + i, 0.0, INSERT_VALUES);
+    if (saddle_point)
+    {
+      MatSetValue(A, i, n + i, 1.0, INSERT_VALUES);
+      MatSetValue(A, n + i, i, 1.0, INSERT_VALUES);
+      MatSetValue(A, n + i, n + i, 0.0, INSERT_VALUES);
+    }
   }
   MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
   return A;
 }
-
-/// The 1-D Laplacian: symmetric positive definite.
-Mat laplacian(PetscInt n)
-{
-  Mat A;
-  MatCreateSeqAIJ(PETSC_COMM_SELF, n, n, 3, nullptr, &A);
-  for (PetscInt i = 0; i < n; ++i)
-  {
-    MatSetValue(A, i, i, 2.0, INSERT_VALUES);
-    if (i > 0)
-      MatSetValue(A, i, i - 1, -1.0, INSERT_VALUES);
-    if (i + 1 < n)
-      MatSetValue(A, i, i + 1, -1.0, INSERT_VALUES);
-  }
-  MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
-  MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
-  return A;
-}
+Mat laplacian(PetscInt n) { return tridiagonal(n, false); }
+Mat saddle_point(PetscInt n) { return tridiagonal(n, true); }
 
 struct Solve
 {
@@ -60,6 +49,7 @@ struct Solve
   PetscErrorCode error;
 };
 
+/// Solve A x = 1 with the solver `configure` sets up; A is destroyed.
 Solve solve(Mat A, const std::function<void(KSP, PC)>& configure)
 {
   KSP ksp;
@@ -82,16 +72,22 @@ Solve solve(Mat A, const std::function<void(KSP, PC)>& configure)
   VecDestroy(&b);
   VecDestroy(&x);
   KSPDestroy(&ksp);
+  MatDestroy(&A);
   return s;
+}
+
+void direct(KSP ksp, PC pc)
+{
+  KSPSetType(ksp, KSPPREONLY);
+  PCSetType(pc, PCLU);
 }
 } // namespace
 
-TEST(LinearFailure, MultigridZeroPivotNamesTheLevelAndTheShiftedSmoother)
+TEST(LinearFailure, MultigridZeroDiagonalGetsTheShiftedSmoother)
 {
-  Mat A = saddle_point(400);
   // SOR smoothers (read from the options when GAMG sets up its levels)
   PetscOptionsSetValue(nullptr, "-zero_pivot_mg_levels_pc_type", "sor");
-  const Solve s = solve(A,
+  const Solve s = solve(saddle_point(400),
                         [](KSP ksp, PC pc)
                         {
                           KSPSetOptionsPrefix(ksp, "zero_pivot_");
@@ -100,7 +96,6 @@ TEST(LinearFailure, MultigridZeroPivotNamesTheLevelAndTheShiftedSmoother)
                           KSPSetFromOptions(ksp);
                         });
   PetscOptionsClearValue(nullptr, "-zero_pivot_mg_levels_pc_type");
-  MatDestroy(&A);
   // PETSc 3.18's SOR stops on a zero diagonal with an error, not a reason
   ASSERT_TRUE(s.error != 0 or s.reason < 0) << "the saddle-point system did not fail";
   EXPECT_NE(s.description.find("preconditioner gamg"), std::string::npos) << s.description;
@@ -117,13 +112,7 @@ TEST(LinearFailure, SingularFactorisationIsAZeroPivot)
 {
   Mat A = laplacian(50);
   MatZeroEntries(A); // singular: every pivot is zero
-  const Solve s = solve(A,
-                        [](KSP ksp, PC pc)
-                        {
-                          KSPSetType(ksp, KSPPREONLY);
-                          PCSetType(pc, PCLU);
-                        });
-  MatDestroy(&A);
+  const Solve s = solve(A, direct);
   ASSERT_LT(s.reason, 0);
   EXPECT_NE(s.description.find("ZEROPIVOT"), std::string::npos) << s.description;
   EXPECT_NE(linear_failure_advice(s.description).find("zero pivot"), std::string::npos);
@@ -131,15 +120,13 @@ TEST(LinearFailure, SingularFactorisationIsAZeroPivot)
 
 TEST(LinearFailure, StalledKrylovSolverGetsLinearSolverAdvice)
 {
-  Mat A = laplacian(200);
-  const Solve s = solve(A,
+  const Solve s = solve(laplacian(200),
                         [](KSP ksp, PC pc)
                         {
                           KSPSetType(ksp, KSPGMRES);
                           PCSetType(pc, PCJACOBI);
                           KSPSetTolerances(ksp, 1e-12, 1e-50, PETSC_DEFAULT, 2);
                         });
-  MatDestroy(&A);
   ASSERT_EQ(s.reason, KSP_DIVERGED_ITS);
   EXPECT_NE(s.description.find("DIVERGED_ITS after 2 iterations"), std::string::npos)
       << s.description;
@@ -150,14 +137,7 @@ TEST(LinearFailure, StalledKrylovSolverGetsLinearSolverAdvice)
 
 TEST(LinearFailure, ConvergedSolveHasNoDescription)
 {
-  Mat A = laplacian(50);
-  const Solve s = solve(A,
-                        [](KSP ksp, PC pc)
-                        {
-                          KSPSetType(ksp, KSPPREONLY);
-                          PCSetType(pc, PCLU);
-                        });
-  MatDestroy(&A);
+  const Solve s = solve(laplacian(50), direct);
   EXPECT_GT(s.reason, 0);
   EXPECT_TRUE(s.description.empty()) << s.description;
 }

@@ -10,6 +10,8 @@
 // the test allows twice that.  It is not loose: it also requires |dJ| < 2e-2
 // (the point is in the nearly incompressible regime), and a separate test
 // checks that the FE error falls as the penalty grows.
+#include "support/finite_differences.h"
+
 #include <loadcases/cube_fe.h>
 #include <loadcases/curve.h>
 
@@ -36,8 +38,7 @@ double exact(const ParameterSet& p, MuscleState state, LoadCase c, double s)
 
 double exact_slope(const ParameterSet& p, MuscleState state, LoadCase c, double s)
 {
-  const double h = 1e-5;
-  return (exact(p, state, c, s + h) - exact(p, state, c, s - h)) / (2 * h);
+  return muscle::testing::central_at([&](double x) { return exact(p, state, c, x); }, s, 1e-5);
 }
 
 void expect_fe_matches_exact(const ParameterSet& p, const std::string& label,

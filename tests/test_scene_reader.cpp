@@ -11,6 +11,7 @@
 #include <fstream>
 #include <gtest/gtest.h>
 #include <random>
+#include <regex>
 #include <sstream>
 
 using namespace muscle;
@@ -294,4 +295,21 @@ TEST(SceneOverrides, ReplaceAddAndLocate)
     EXPECT_EQ(m.rfind("--set " + assignment, 0), 0u) << assignment << ": " << m;
     EXPECT_NE(m.find(expected), std::string::npos) << assignment << ": " << m;
   }
+}
+
+// One reader for parameter files: the scene reads the CRLF file `fit` reads.
+TEST(SceneReader, ParameterFileWithCrlfLineEnds)
+{
+  const auto dir = std::filesystem::temp_directory_path() / "muscle_crlf_params";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "ble.params") << "# fitted\r\nmu=12.5\r\n\r\nkappa=2000\r\n";
+  const std::string text = read_text(scenes + "/block_graded.yaml");
+  const std::string with_file = std::regex_replace(
+      text, std::regex("material: \\{model: ble\\}"),
+      "material: {model: ble, parameter_file: " + (dir / "ble.params").string() + "}");
+  ASSERT_NE(with_file, text);
+  const Scene scene = parse_scene(with_file, "crlf.yaml", scenes);
+  EXPECT_DOUBLE_EQ(scene.parts[0].parameters["mu"], 12.5);
+  EXPECT_DOUBLE_EQ(scene.parts[0].parameters["kappa"], 2000.0);
+  std::filesystem::remove_all(dir);
 }

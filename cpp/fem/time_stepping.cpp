@@ -90,6 +90,15 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
   return f;
 }
 
+std::string StepFailure::message(int step_number, const std::string& out) const
+{
+  return "Newton failed at step " + std::to_string(step_number) + " going from t = "
+         + std::to_string(t_converged) + " to " + std::to_string(t_attempted) + " s (" + reason
+         + "; " + std::to_string(cutbacks) + " cutbacks, " + std::to_string(newton_iterations)
+         + " Newton iterations); " + where + ". The state at t = " + std::to_string(t_converged)
+         + " s is written to " + out + ". Try: " + advice + ".";
+}
+
 std::optional<StepFailure>
 QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
 {

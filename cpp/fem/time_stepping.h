@@ -52,6 +52,10 @@ struct StepFailure
 
   /// The fields above for a run's summary.json.
   nlohmann::json to_json() const;
+
+  /// The stop message: what failed at which step, where, where the last
+  /// converged state was written (`out`), and what to try.
+  std::string message(int step_number, const std::string& out) const;
 };
 
 /// Quasi-static time stepping: for each output time solve the equilibrium

@@ -810,29 +810,4 @@ std::vector<DataPoint> synthesize(const ParameterSet& p, const std::vector<Curve
   return out;
 }
 
-void read_parameter_file(const std::string& path, ParameterSet& p)
-{
-  std::ifstream in(path);
-  if (!in)
-    throw InputError("cannot read parameter file " + path);
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line))
-  {
-    ++number;
-    const auto b = line.find_first_not_of(" \t\r");
-    if (b == std::string::npos or line[b] == '#')
-      continue;
-    const auto e = line.find_last_not_of(" \t\r");
-    try
-    {
-      p.set_assignment(line.substr(b, e - b + 1));
-    }
-    catch (const InputError& err)
-    {
-      throw InputError(path + ":" + std::to_string(number) + ": " + err.what());
-    }
-  }
-}
-
 } // namespace muscle::fit

@@ -181,9 +181,5 @@ std::vector<DataPoint> synthesize(const ParameterSet& p,
                                   Kinematics kinematics, double noise,
                                   unsigned seed);
 
-/// Read a parameter file of "name=value" lines (as written by
-/// ParameterSet::to_text(); blank lines and '#' comments allowed) into `p`;
-/// InputError naming file and line.  Does not validate().
-void read_parameter_file(const std::string& path, ParameterSet& p);
 
 } // namespace muscle::fit

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <sstream>
@@ -281,6 +282,31 @@ std::string ParameterSet::to_text() const
   for (std::size_t i = 0; i < specs.size(); ++i)
     out += specs[i].name + "=" + format_value(_values[i]) + "\n";
   return out;
+}
+
+void read_parameter_file(const std::string& path, ParameterSet& p)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw InputError("cannot read parameter file " + path);
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line))
+  {
+    ++number;
+    const auto b = line.find_first_not_of(" \t\r");
+    if (b == std::string::npos or line[b] == '#')
+      continue;
+    const auto e = line.find_last_not_of(" \t\r");
+    try
+    {
+      p.set_assignment(line.substr(b, e - b + 1));
+    }
+    catch (const InputError& err)
+    {
+      throw InputError(path + ":" + std::to_string(number) + ": " + err.what());
+    }
+  }
 }
 
 } // namespace muscle

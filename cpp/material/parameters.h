@@ -84,4 +84,9 @@ private:
   std::vector<bool> _explicit;
 };
 
+/// Read a parameter file of "name=value" lines (as written by
+/// ParameterSet::to_text(); blank lines, '#' comments and CRLF line ends
+/// allowed) into `p`; InputError naming file and line.  Does not validate().
+void read_parameter_file(const std::string& path, ParameterSet& p);
+
 } // namespace muscle

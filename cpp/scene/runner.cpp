@@ -3,12 +3,12 @@
 #include "../common/application.h"
 #include "../common/errors.h"
 #include "../fem/boundary.h"
+#include "../fem/element_choice.h"
 #include "../fem/fibres.h"
 #include "../fem/muscle_problem.h"
 #include "../fem/point_probe.h"
 #include "../fem/uniform_constraint.h"
 #include "../io/gmsh_mesh.h"
-#include "../io/plotting.h"
 #include "../io/surface_export.h"
 #include "../material/time_functions.h"
 #include "checkpoint.h"
@@ -312,6 +312,33 @@ void run_scene(const Scene& scene, const RunOptions& options)
     }
   }();
   auto mesh = gm.mesh;
+
+  // The element: F-bar on degree-1 hexahedra unless the scene says otherwise;
+  // plain linear elements under a nearly incompressible law get a warning
+  const std::string cell_type = mesh::to_string(mesh->topology().cell_type());
+  const bool anti_locking = scene.mesh.volumetric_quadrature_degree >= 0;
+  bool fbar = false;
+  try
+  {
+    fbar = use_fbar(scene.mesh.fbar, cell_type, scene.mesh.degree, anti_locking);
+  }
+  catch (const InputError& e)
+  {
+    throw InputError(scene.mesh.fbar_where.text() + ": " + e.what());
+  }
+  const Discretisation element{scene.mesh.degree, scene.mesh.quadrature_degree,
+                               scene.mesh.volumetric_quadrature_degree, fbar};
+  std::vector<std::string> warnings;
+  for (const Part& part : scene.parts)
+    if (std::string w = locking_warning(cell_type, scene.mesh.degree, fbar, anti_locking,
+                                        part.parameters);
+        !w.empty())
+    {
+      warnings.push_back(part.where.text() + ": " + w);
+      if (is_root())
+        std::fprintf(stderr, "warning: %s\n", warnings.back().c_str());
+    }
+
   auto surface = [&](const std::string& name, const SceneLocation& where)
   {
     try
@@ -342,10 +369,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
     try
     {
       problems.push_back(std::make_unique<MuscleProblem>(
-          mesh, part.parameters,
-          Discretisation{scene.mesh.degree, scene.mesh.quadrature_degree,
-                         scene.mesh.volumetric_quadrature_degree, scene.mesh.fbar},
-          !part.active, region, p > 0 ? problems[0]->u() : nullptr));
+          mesh, part.parameters, element, !part.active, region,
+          p > 0 ? problems[0]->u() : nullptr));
     }
     catch (const InputError& e)
     {
@@ -553,16 +578,15 @@ void run_scene(const Scene& scene, const RunOptions& options)
   built.erase("part");
   built["axial_constraint_unknown"] = constraint != nullptr;
   built["mass_matrix"] = false;
-  built["element"] = {{"cell", mesh::to_string(mesh->topology().cell_type())},
-                      {"degree", scene.mesh.degree},
-                      {"fbar", scene.mesh.fbar}};
+  built["element"] = {{"cell", cell_type}, {"degree", scene.mesh.degree}, {"fbar", fbar}};
   built["unknowns"] = unknowns;
   if (body.size() > 1)
     built["parts"] = built_parts;
   if (!options.quiet and is_root())
-    std::printf("%s: %s, %lld cells, %lld unknowns, forms %s\n", scene.file.c_str(),
-                scene.title.c_str(), static_cast<long long>(gm.num_cells),
-                static_cast<long long>(unknowns), forms_text.c_str());
+    std::printf("%s: %s, %lld cells, %lld unknowns, %s%s degree %d, forms %s\n",
+                scene.file.c_str(), scene.title.c_str(), static_cast<long long>(gm.num_cells),
+                static_cast<long long>(unknowns), fbar ? "F-bar " : "", cell_type.c_str(),
+                scene.mesh.degree, forms_text.c_str());
 
   nlohmann::json assembly;
   if (options.measure_assembly > 0 and body.size() > 1)
@@ -574,10 +598,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
     const Part& part = scene.parts[0];
     problem.set_time_factor(part.active ? 1.0 : 0.0);
     assembly["scene"] = time_assembly(problem, options.measure_assembly);
-    MuscleProblem plain(mesh, part.parameters,
-                        {scene.mesh.degree, scene.mesh.quadrature_degree,
-                         scene.mesh.volumetric_quadrature_degree, scene.mesh.fbar},
-                        true);
+    MuscleProblem plain(mesh, part.parameters, element, true);
     assembly["plain_passive"] = time_assembly(plain, options.measure_assembly);
     problem.set_time_factor(0);
     if (is_root())
@@ -860,7 +881,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
                      {"solve_s", stepping_time - output_time},
                      {"output_s", output_time}}},
         {"fields", scene.output.fields ? fields_path : ""},
-        {"overrides", scene.overrides}};
+        {"overrides", scene.overrides}, {"warnings", warnings}};
     for (std::size_t k = 0; k < last.size(); ++k)
       summary["final"][scene.output.series[k].name] = last[k];
     if (!assembly.is_null())
@@ -873,21 +894,11 @@ void run_scene(const Scene& scene, const RunOptions& options)
   }
   if (series.is_open())
     series.close();
-  if (scene.output.plots and !scene.output.series.empty())
-    run_plot_script("demos/scene/plot_series.py",
-                    {options.out + "/series.png", series_path, scene.title});
   if (!input_error.empty())
     throw InputError(input_error + " (the state at the last converged step is written to "
                      + options.out + ")");
   if (failure)
-    throw SolveError("Newton failed at step " + std::to_string(step + 1) + " going from t = "
-                     + std::to_string(failure->t_converged) + " to "
-                     + std::to_string(failure->t_attempted) + " s (" + failure->reason + "; "
-                     + std::to_string(failure->cutbacks) + " cutbacks, "
-                     + std::to_string(failure->newton_iterations) + " Newton iterations); "
-                     + failure->where + ". The state at t = "
-                     + std::to_string(failure->t_converged) + " s is written to " + options.out + ". Try: "
-                     + failure->advice + ".");
+    throw SolveError(failure->message(step + 1, options.out));
 }
 
 } // namespace muscle

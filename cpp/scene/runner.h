@@ -17,8 +17,8 @@ struct RunOptions
 };
 
 /// Build what the scene needs -- and nothing else -- and run it.  Writes
-/// series.csv, fields.xdmf, summary.json, checkpoints, series.png and
-/// surface.json into options.out.  Throws InputError for scene mistakes found
+/// series.csv, fields.xdmf, summary.json, checkpoints and surface.json into
+/// options.out (pictures are the programs' business, not the library's).  Throws InputError for scene mistakes found
 /// on the mesh (unknown surface, ...), SolveError when the time stepping fails
 /// (after writing the last converged state).
 void run_scene(const Scene& scene, const RunOptions& options);

@@ -137,7 +137,10 @@ struct MeshSpec
   int degree = 1;
   int quadrature_degree = -1;
   int volumetric_quadrature_degree = -1; ///< 1 on Q1: anti-locking
-  bool fbar = false;                     ///< F-bar hexahedra (Q1)
+  /// F-bar hexahedra (Q1) if given; unset: F-bar on degree-1 hexahedra
+  /// (use_fbar), decided once the mesh's cells are known
+  std::optional<bool> fbar;
+  SceneLocation fbar_where; ///< of element.fbar, if given
   SceneLocation where;
 };
 

@@ -476,25 +476,13 @@ void read_material(const Entry& e, Part& part, const std::string& directory)
   if (e["parameter_file"].defined())
   {
     const Entry f = e["parameter_file"];
-    const std::string path = existing_file(f, directory);
-    std::ifstream in(path);
-    std::string line;
-    int number = 0;
-    while (std::getline(in, line))
+    try
     {
-      ++number;
-      line.erase(0, line.find_first_not_of(" \t"));
-      if (line.empty() or line[0] == '#')
-        continue;
-      try
-      {
-        part.parameters.set_assignment(line);
-      }
-      catch (const InputError& error)
-      {
-        throw InputError(path + ":" + std::to_string(number) + ": " + error.what()
-                         + " (read for " + f.where().text() + ")");
-      }
+      read_parameter_file(existing_file(f, directory), part.parameters);
+    }
+    catch (const InputError& error)
+    {
+      throw InputError(std::string(error.what()) + " (read for " + f.where().text() + ")");
     }
   }
   const Entry p = e["parameters"];
@@ -785,13 +773,17 @@ Scene parse_scene(const std::string& text, const std::string& name,
     scene.mesh.quadrature_degree = el["quadrature_degree"].integer(-1, 1, 12);
     scene.mesh.volumetric_quadrature_degree
         = el["volumetric_quadrature_degree"].integer(-1, 1, 12);
-    scene.mesh.fbar = el["fbar"].flag(false);
-    if (scene.mesh.fbar and scene.mesh.degree != 1)
-      el["fbar"].fail("the F-bar element is the locking-free Q1 hexahedron: it needs degree 1 "
-                      "(Q2 does not lock)");
-    if (scene.mesh.fbar and scene.mesh.volumetric_quadrature_degree >= 0)
-      el["fbar"].fail("F-bar and a volumetric quadrature degree of its own are two anti-locking "
-                      "elements; choose one");
+    if (el["fbar"].defined())
+    {
+      scene.mesh.fbar = el["fbar"].flag(false);
+      scene.mesh.fbar_where = el["fbar"].where();
+      if (*scene.mesh.fbar and scene.mesh.degree != 1)
+        el["fbar"].fail("the F-bar element is the locking-free Q1 hexahedron: it needs degree 1 "
+                        "(Q2 does not lock)");
+      if (*scene.mesh.fbar and scene.mesh.volumetric_quadrature_degree >= 0)
+        el["fbar"].fail("F-bar and a volumetric quadrature degree of its own are two "
+                        "anti-locking elements; choose one");
+    }
   }
 
   // parts

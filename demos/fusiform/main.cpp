@@ -2,9 +2,10 @@
 // muscle contraction").
 //
 //   fusiform --model {ble,wkm,giant,combi} --case {isometric,free}
-//            --refinement {1,2,4} [--cell hex|tet] [--degree 1|2] [--dt SECONDS]
-//            [--set NAME=VALUE ...] --out DIR
+//            --refinement {1,2,4} [--cell hex|tet] [--degree 1|2] [--no-fbar]
+//            [--dt SECONDS] [--set NAME=VALUE ...] --out DIR    (all options: --help)
 //
+// Degree-1 hexahedra are F-bar elements unless --no-fbar (plain Q1 locks).
 // A spindle 100 mm long along e3, radius 10 mm at the ends and 20 mm in the
 // middle (meshes/fusiform.geo), fibres from a Laplace potential between origin
 // and insertion, activated from t = 0 to 0.15 s.  Isometric: both ends clamped;
@@ -13,12 +14,13 @@
 // extra unknown); the stretch ratio epsilon = 1 + u3/l is recorded.
 //
 // Writes DIR/series.csv, DIR/fields.xdmf, DIR/summary.json, DIR/series.png and
-// DIR/surface.json (deformed surface for tools/render).
+// DIR/surface.json (deformed surface for tools/render_surface.py).
 #include <common/application.h>
 #include <common/command_line.h>
 #include <common/errors.h>
 #include <fem/boundary.h>
 #include <fem/condition_number.h>
+#include <fem/element_choice.h>
 #include <fem/fibres.h>
 #include <fem/muscle_problem.h>
 #include <fem/nonlinear_solver.h>
@@ -82,8 +84,15 @@ Settings parse(std::vector<std::string> args)
   app.add_flag("--anti-locking", s.anti_locking,
                "BLE on Q1 hexahedra: stiff volumetric part on one point per cell "
                "(selective reduced integration)");
-  app.add_flag("--fbar", s.fbar,
-               "F-bar hexahedra (Q1): the paper's locking-free element, every model");
+  bool fbar_on = false, fbar_off = false;
+  CLI::Option* fbar_option = app.add_flag(
+      "--fbar", fbar_on,
+      "F-bar hexahedra (Q1), the paper's locking-free element: the default for --cell hex "
+      "--degree 1");
+  app.add_flag("--no-fbar", fbar_off,
+               "plain Q1 hexahedra instead of F-bar (they lock: +6 % force at n = 1, "
+               "BENCHMARKS.md)")
+      ->excludes(fbar_option);
   bool displacement_newton = false;
   app.add_flag("--fbar-displacement-newton", displacement_newton,
                "F-bar: Newton on u alone (theta = J0(u)) instead of (u, theta, p); same "
@@ -150,14 +159,16 @@ Settings parse(std::vector<std::string> args)
                        "lock; BENCHMARKS.md)");
     s.element.volumetric_quadrature_degree = 1;
   }
-  if (s.fbar)
+  try
   {
-    if (s.cell != "hex" or s.degree != 1 or s.anti_locking)
-      throw InputError("--fbar: only for --cell hex --degree 1, without --anti-locking "
-                       "(Q2 does not lock; on tetrahedra the centre value is the whole P1 "
-                       "field)");
-    s.element.fbar = true;
+    s.fbar = use_fbar(fbar_on or fbar_off ? std::optional<bool>(fbar_on) : std::nullopt,
+                      s.cell, s.degree, s.anti_locking);
   }
+  catch (const InputError& e)
+  {
+    throw InputError(std::string("--fbar: ") + e.what());
+  }
+  s.element.fbar = s.fbar;
   if (!(s.root_tolerance >= 1e-16 and s.root_tolerance < 1))
     throw InputError("--root-tolerance " + std::to_string(s.root_tolerance)
                      + ": allowed from 1e-16 (round-off; smaller never stops) to below 1");
@@ -185,6 +196,9 @@ int main(int argc, char** argv)
     for (const std::string& a : s.assignments)
       parameters.set_assignment(a);
     parameters.validate();
+    if (const std::string w = locking_warning(s.cell, s.degree, s.fbar, s.anti_locking, parameters);
+        !w.empty() and dolfinx::MPI::rank(MPI_COMM_WORLD) == 0)
+      std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::filesystem::create_directories(s.out);
 
     // Mesh and tags from the Gmsh source
@@ -370,14 +384,7 @@ int main(int argc, char** argv)
     run_plot_script("demos/fusiform/plot_fusiform.py",
                     {s.out + "/series.png", s.model + " " + s.load + "=" + s.out + "/series.csv"});
     if (failure)
-      throw SolveError("Newton failed at step " + std::to_string(failure->step) + " going from t = "
-                       + std::to_string(failure->t_converged) + " to "
-                       + std::to_string(failure->t_attempted) + " s (" + failure->reason + "; "
-                       + std::to_string(failure->cutbacks) + " cutbacks, "
-                       + std::to_string(failure->newton_iterations) + " Newton iterations); "
-                       + failure->where + ". The state at t = "
-                       + std::to_string(failure->t_converged) + " s is written to " + s.out
-                       + ". Try: " + failure->advice + ".");
+      throw SolveError(failure->message(failure->step, s.out));
     return 0;
   });
 }

@@ -73,7 +73,7 @@ def main():
             out = os.path.join(args.out, f"{model}_{index}")
             command = [os.path.join(args.build, "fusiform"), "--model", model, "--case",
                        args.case, "--refinement", "1", "--out", out, "--quiet",
-                       "--no-fields", *options]
+                       "--no-fields", "--no-fbar", *options]
             start = time.time()
             result = subprocess.run(command, capture_output=True, text=True)
             wall = time.time() - start

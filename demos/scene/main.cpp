@@ -10,6 +10,7 @@
 #include <common/application.h>
 #include <common/command_line.h>
 #include <common/errors.h>
+#include <io/plotting.h>
 #include <scene/runner.h>
 #include <scene/scene.h>
 
@@ -73,7 +74,25 @@ int main(int argc, char** argv)
         PetscOptionsSetValue(nullptr, name.c_str(),
                              has_value ? scene.petsc_options[i + 1].c_str() : nullptr);
     }
-    run_scene(scene, options);
+    // series.png from what was converged, also when the run stopped early
+    const auto plot = [&]
+    {
+      const std::string series = options.out + "/series.csv";
+      if (!options.check_only and scene.output.plots and !scene.output.series.empty()
+          and std::filesystem::exists(series))
+        run_plot_script("demos/scene/plot_series.py",
+                        {options.out + "/series.png", series, scene.title});
+    };
+    try
+    {
+      run_scene(scene, options);
+    }
+    catch (const SolveError&)
+    {
+      plot();
+      throw;
+    }
+    plot();
     return 0;
   });
 }

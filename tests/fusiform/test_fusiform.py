@@ -43,7 +43,8 @@ def fusiform(build, out, options, ranks=1):
     return result.returncode, summary, series
 
 
-ELEMENT_OPTIONS = {"q1": ["--degree", "1"], "q2": ["--degree", "2"], "fbar": ["--fbar"]}
+ELEMENT_OPTIONS = {"q1": ["--degree", "1", "--no-fbar"], "q2": ["--degree", "2"],
+                   "fbar": ["--fbar"]}
 
 
 def out_dir(build, element):

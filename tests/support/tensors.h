@@ -1,5 +1,7 @@
 #pragma once
 // Small 3x3 helpers shared by the point-wise tests (row-major Matrix3).
+#include "finite_differences.h"
+
 #include <cmath>
 #include <material/material_point.h>
 #include <vector>
@@ -22,12 +24,6 @@ inline double det(const Matrix3& F)
          + F[2] * (F[3] * F[7] - F[4] * F[6]);
 }
 
-/// Fourth-order central difference of f at 0 with step h.
-template <typename F>
-double central(F&& f, double h)
-{
-  return (-f(2 * h) + 8 * f(h) - 8 * f(-h) + f(-2 * h)) / (12 * h);
-}
 /// Within `distance` of a switch of a piecewise definition in the fibre
 /// stretch (finite differences across a kink measure the kink, not the model):
 /// lambda = 1 (passive fibre switch), BLE's 0.6 and 1.4 lambda_opt and
