@@ -2,328 +2,198 @@
 
 #include "../common/errors.h"
 
+#include <muParser.h>
+
+#include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <functional>
-#include <map>
 #include <numbers>
+#include <string_view>
 
 namespace muscle
 {
 
-struct Expression::Node
+struct Expression::Compiled
 {
-  enum Kind
-  {
-    number,
-    variable,
-    unary,
-    binary,
-    function
-  } kind;
-  double value = 0;
-  int index = -1;                        ///< variable index
-  char op = 0;                           ///< + - * / ^ < > l (<=) g (>=)
-  std::string name;                      ///< function name
-  std::vector<std::shared_ptr<const Node>> args;
-
-  double eval(const double* v) const
-  {
-    switch (kind)
-    {
-    case number:
-      return value;
-    case variable:
-      return v[index];
-    case unary:
-      return -args[0]->eval(v);
-    case binary:
-    {
-      const double a = args[0]->eval(v), b = args[1]->eval(v);
-      switch (op)
-      {
-      case '+': return a + b;
-      case '-': return a - b;
-      case '*': return a * b;
-      case '/': return a / b;
-      case '^': return std::pow(a, b);
-      case '<': return a < b;
-      case '>': return a > b;
-      case 'l': return a <= b;
-      default: return a >= b;
-      }
-    }
-    default:
-    {
-      const double a = args[0]->eval(v);
-      if (name == "min")
-        return std::min(a, args[1]->eval(v));
-      if (name == "max")
-        return std::max(a, args[1]->eval(v));
-      static const std::map<std::string, double (*)(double)> f
-          = {{"sin", std::sin}, {"cos", std::cos}, {"tan", std::tan},
-             {"exp", std::exp}, {"log", std::log}, {"sqrt", std::sqrt},
-             {"abs", std::fabs}, {"tanh", std::tanh}};
-      return f.at(name)(a);
-    }
-    }
-  }
+  mu::Parser parser;
+  std::vector<double> values;    ///< the parser's variables
+  std::vector<std::size_t> used; ///< indices of the variables the formula uses
 };
 
 namespace
 {
-using NodePtr = std::shared_ptr<const Expression::Node>;
+// muParser's own functions (ln, log2, sum, variadic min and max, ...) are
+// replaced by these, so that the list in the messages is complete
+const std::pair<const char*, mu::fun_type1> unary_functions[] = {
+    {"sin", [](double a) { return std::sin(a); }},
+    {"cos", [](double a) { return std::cos(a); }},
+    {"tan", [](double a) { return std::tan(a); }},
+    {"exp", [](double a) { return std::exp(a); }},
+    {"log", [](double a) { return std::log(a); }},
+    {"sqrt", [](double a) { return std::sqrt(a); }},
+    {"abs", [](double a) { return std::abs(a); }},
+    {"tanh", [](double a) { return std::tanh(a); }}};
+const std::pair<const char*, mu::fun_type2> binary_functions[] = {
+    {"min", [](double a, double b) { return std::min(a, b); }},
+    {"max", [](double a, double b) { return std::max(a, b); }}};
 
-const std::map<std::string, int> functions
-    = {{"sin", 1}, {"cos", 1}, {"tan", 1}, {"exp", 1}, {"log", 1}, {"sqrt", 1},
-       {"abs", 1}, {"tanh", 1}, {"min", 2}, {"max", 2}};
-
-/// Recursive descent: comparison > sum > product > unary > power > atom.
-class Parser
+std::vector<std::string> function_names()
 {
-public:
-  Parser(const std::string& text, const std::vector<std::string>& variables)
-      : _s(text), _variables(variables)
-  {
-  }
+  std::vector<std::string> names;
+  for (const auto& [name, _] : unary_functions)
+    names.push_back(name);
+  for (const auto& [name, _] : binary_functions)
+    names.push_back(name);
+  return names;
+}
 
-  NodePtr parse()
-  {
-    NodePtr n = comparison();
-    skip();
-    if (_i != _s.size())
-      fail("unexpected '" + std::string(1, _s[_i]) + "'");
-    return n;
-  }
+constexpr std::size_t max_length = 10000, max_depth = 200;
 
-private:
-  [[noreturn]] void fail(const std::string& what) const
-  {
-    throw InputError("expression '" + _s + "': " + what + " at character "
-                     + std::to_string(_i + 1));
-  }
-  void skip()
-  {
-    while (_i < _s.size() and std::isspace(static_cast<unsigned char>(_s[_i])))
-      ++_i;
-  }
-  bool accept(const std::string& token)
-  {
-    skip();
-    if (_s.compare(_i, token.size(), token) == 0)
-    {
-      _i += token.size();
-      return true;
-    }
-    return false;
-  }
-  NodePtr make_binary(char op, NodePtr a, NodePtr b)
-  {
-    count_node();
-    auto n = std::make_shared<Expression::Node>();
-    n->kind = Expression::Node::binary;
-    n->op = op;
-    n->args = {a, b};
-    return n;
-  }
+bool is_name_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) or c == '_'; }
 
-  NodePtr comparison()
-  {
-    NodePtr a = sum();
-    for (;;)
-    {
-      if (accept("<="))
-        a = make_binary('l', a, sum());
-      else if (accept(">="))
-        a = make_binary('g', a, sum());
-      else if (accept("<"))
-        a = make_binary('<', a, sum());
-      else if (accept(">"))
-        a = make_binary('>', a, sum());
-      else
-        return a;
-    }
-  }
-  NodePtr sum()
-  {
-    NodePtr a = product();
-    for (;;)
-    {
-      if (accept("+"))
-        a = make_binary('+', a, product());
-      else if (accept("-"))
-        a = make_binary('-', a, product());
-      else
-        return a;
-    }
-  }
-  NodePtr product()
-  {
-    NodePtr a = signed_power();
-    for (;;)
-    {
-      if (accept("*"))
-        a = make_binary('*', a, signed_power());
-      else if (accept("/"))
-        a = make_binary('/', a, signed_power());
-      else
-        return a;
-    }
-  }
-  // Every recursion passes through here: bounded depth, bounded size (the
-  // tree is evaluated recursively too)
-  void count_node()
-  {
-    if (++_nodes > 10000)
-      fail("formula too long (more than 10000 operations)");
-  }
-  struct Depth
-  {
-    Parser& p;
-    explicit Depth(Parser& parser) : p(parser)
-    {
-      if (++p._depth > 200)
-        p.fail("nesting too deep");
-    }
-    ~Depth() { --p._depth; }
-  };
-
-  // -x^2 = -(x^2), as in mathematics
-  NodePtr signed_power()
-  {
-    const Depth guard(*this);
-    count_node();
-    if (accept("-"))
-    {
-      auto n = std::make_shared<Expression::Node>();
-      n->kind = Expression::Node::unary;
-      n->args = {signed_power()};
-      return n;
-    }
-    if (accept("+"))
-      return signed_power();
-    return power();
-  }
-  NodePtr power()
-  {
-    NodePtr base = atom();
-    if (accept("^"))
-      return make_binary('^', base, signed_power());
-    return base;
-  }
-  NodePtr atom()
-  {
-    skip();
-    if (_i >= _s.size())
-      fail("unexpected end, expected a number, variable or '('");
-    NodePtr result;
-    const char c = _s[_i];
-    if (accept("("))
-    {
-      result = comparison();
-      if (!accept(")"))
-        fail("expected ')'");
-    }
-    else if (std::isdigit(static_cast<unsigned char>(c)) or c == '.')
-    {
-      const char* begin = _s.c_str() + _i;
-      char* end = nullptr;
-      const double value = std::strtod(begin, &end);
-      if (end == begin)
-        fail("malformed number");
-      _i += end - begin;
-      auto n = std::make_shared<Expression::Node>();
-      n->kind = Expression::Node::number;
-      n->value = value;
-      result = n;
-    }
-    else if (std::isalpha(static_cast<unsigned char>(c)) or c == '_')
-    {
-      const std::size_t start = _i;
-      while (_i < _s.size()
-             and (std::isalnum(static_cast<unsigned char>(_s[_i])) or _s[_i] == '_'))
-        ++_i;
-      const std::string name = _s.substr(start, _i - start);
-      auto n = std::make_shared<Expression::Node>();
-      if (auto f = functions.find(name); f != functions.end())
-      {
-        if (!accept("("))
-          fail("expected '(' after " + name);
-        n->kind = Expression::Node::function;
-        n->name = name;
-        n->args.push_back(comparison());
-        for (int k = 1; k < f->second; ++k)
-        {
-          if (!accept(","))
-            fail(name + " takes " + std::to_string(f->second) + " arguments");
-          n->args.push_back(comparison());
-        }
-        if (!accept(")"))
-          fail("expected ')' closing " + name);
-      }
-      else if (name == "pi")
-      {
-        n->kind = Expression::Node::number;
-        n->value = std::numbers::pi;
-      }
-      else
-      {
-        std::size_t k = 0;
-        while (k < _variables.size() and _variables[k] != name)
-          ++k;
-        if (k == _variables.size())
-        {
-          std::vector<std::string> known = _variables;
-          for (auto& [f, _] : functions)
-            known.push_back(f);
-          throw InputError("expression '" + _s + "': unknown name '" + name
-                           + "'; variables: " + join(_variables) + ", functions: "
-                           + "sin cos tan exp log sqrt abs tanh min max"
-                           + did_you_mean(name, known));
-        }
-        n->kind = Expression::Node::variable;
-        n->index = static_cast<int>(k);
-      }
-      result = n;
-    }
-    else
-      fail("unexpected '" + std::string(1, c) + "'");
-    return result;
-  }
-
-  const std::string& _s;
-  const std::vector<std::string>& _variables;
-  std::size_t _i = 0;
-  int _depth = 0, _nodes = 0;
-};
-
-bool uses_index(const Expression::Node& n, int index)
+[[noreturn]] void fail(const std::string& text, std::size_t i, const std::string& what)
 {
-  if (n.kind == Expression::Node::variable and n.index == index)
-    return true;
-  for (const auto& a : n.args)
-    if (uses_index(*a, index))
-      return true;
-  return false;
+  throw InputError("expression '" + text + "': " + what + " at character " + std::to_string(i + 1));
+}
+
+/// The text as muParser wants it, after the checks muParser does not make:
+/// bounded length and nesting, no ',' outside a function's arguments (muParser
+/// would return several values), no lone '=' (it would assign to a variable).
+std::string prepare(const std::string& text)
+{
+  if (text.size() > max_length)
+    fail(text, max_length,
+         "formula too long (more than " + std::to_string(max_length) + " characters)");
+  std::string s = text;
+  std::vector<bool> calls; // per open '(': does it hold a function's arguments?
+  for (std::size_t i = 0; i < s.size(); ++i)
+  {
+    if (s[i] == '(')
+    {
+      // muParser wants a function's '(' right after its name; moving the
+      // spaces behind it keeps the other characters' positions for messages
+      std::size_t j = i;
+      while (j > 0 and std::isspace(static_cast<unsigned char>(s[j - 1])))
+        --j;
+      std::rotate(s.begin() + j, s.begin() + i, s.begin() + i + 1);
+      calls.push_back(j > 0 and is_name_char(s[j - 1]));
+      if (calls.size() > max_depth)
+        fail(text, i, "nesting too deep");
+    }
+    else if (s[i] == ')' and !calls.empty())
+      calls.pop_back();
+    else if (s[i] == ',' and (calls.empty() or !calls.back()))
+      fail(text, i, "unexpected ','");
+    else if (s[i] == '=')
+    {
+      const bool after = i > 0 and std::string_view("<>=!").find(s[i - 1]) != s.npos;
+      const bool before = i + 1 < s.size() and s[i + 1] == '=';
+      if (!after and !before)
+        fail(text, i, "unexpected '='");
+    }
+  }
+  return s;
+}
+
+/// muParser's error as an InputError naming the position (1-based) and what
+/// was expected; an unknown name with the variables and functions allowed.
+[[noreturn]] void report(const mu::ParserError& e, const std::string& text,
+                         const std::vector<std::string>& variables)
+{
+  const std::string& token = e.GetToken();
+  std::size_t at = std::min<std::size_t>(e.GetPos() < 0 ? text.size() : e.GetPos(), text.size());
+  // muParser places a doubled sign's position after it, other tokens' at their start
+  if (at >= token.size() and text.compare(at, token.size(), token) != 0
+      and text.compare(at - token.size(), token.size(), token) == 0)
+    at -= token.size();
+  switch (e.GetCode())
+  {
+  case mu::ecUNEXPECTED_EOF:
+  case mu::ecEMPTY_EXPRESSION:
+    fail(text, text.size(), "unexpected end, expected a number, variable or '('");
+  case mu::ecMISSING_PARENS:
+    fail(text, text.size(), "expected ')'");
+  case mu::ecTOO_FEW_PARAMS:
+  case mu::ecTOO_MANY_PARAMS:
+    fail(text, at,
+         token + (token == "min" or token == "max" ? " takes 2 arguments" : " takes 1 argument"));
+  case mu::ecUNASSIGNABLE_TOKEN:
+    if (token.empty())
+      break;
+    if (std::isdigit(static_cast<unsigned char>(token[0])) or token[0] == '.')
+      fail(text, at, "malformed number");
+    if (is_name_char(token[0]))
+    {
+      const std::string name(token.begin(),
+                             std::find_if_not(token.begin(), token.end(), is_name_char));
+      const std::vector<std::string> functions = function_names();
+      if (std::find(functions.begin(), functions.end(), name) != functions.end())
+        fail(text, at + name.size(), "expected '(' after " + name);
+      std::vector<std::string> known = variables;
+      known.insert(known.end(), functions.begin(), functions.end());
+      throw InputError("expression '" + text + "': unknown name '" + name + "'; variables: "
+                       + join(variables) + ", functions: " + join(functions, " ")
+                       + did_you_mean(name, known));
+    }
+    fail(text, at, "unexpected '" + token.substr(0, 1) + "'");
+  default:
+    break;
+  }
+  fail(text, at, token.empty() ? e.GetMsg() : "unexpected '" + token + "'");
 }
 } // namespace
 
 Expression::Expression(const std::string& text, const std::vector<std::string>& variables)
-    : _text(text), _variables(variables), _root(Parser(_text, _variables).parse())
+    : _text(text), _variables(variables), _compiled(std::make_unique<Compiled>())
 {
+  mu::Parser& p = _compiled->parser;
+  // the optimizer would rewrite (z - 50)/20 as z*0.05 - 2.5 and x^3 as x*x*x:
+  // not the arithmetic written (last bits), for 20% of the time
+  p.EnableOptimizer(false);
+  p.ClearFun();
+  p.ClearConst();
+  for (const auto& [name, f] : unary_functions)
+    p.DefineFun(name, f);
+  for (const auto& [name, f] : binary_functions)
+    p.DefineFun(name, f);
+  p.DefineConst("pi", std::numbers::pi);
+  _compiled->values.resize(variables.size());
+  for (std::size_t k = 0; k < variables.size(); ++k)
+    p.DefineVar(variables[k], &_compiled->values[k]);
+  try
+  {
+    p.SetExpr(prepare(text));
+    p.Eval(); // compiles, or throws
+    // only now: before, GetUsedVar would take unknown names for variables
+    for (const auto& [name, _] : p.GetUsedVar())
+      _compiled->used.push_back(std::find(variables.begin(), variables.end(), name)
+                                - variables.begin());
+  }
+  catch (const mu::ParserError& e)
+  {
+    report(e, text, variables);
+  }
 }
 
 Expression::~Expression() = default;
-Expression::Expression(const Expression&) = default;
-Expression& Expression::operator=(const Expression&) = default;
+// muParser's own copy would still read the original's variables
+Expression::Expression(const Expression& other) : Expression(other._text, other._variables) {}
+Expression& Expression::operator=(const Expression& other) { return *this = Expression(other); }
+Expression::Expression(Expression&&) noexcept = default;
+Expression& Expression::operator=(Expression&&) noexcept = default;
 
-double Expression::operator()(const double* values) const { return _root->eval(values); }
+double Expression::operator()(const double* values) const
+{
+  for (std::size_t k : _compiled->used)
+    _compiled->values[k] = values[k];
+  return _compiled->parser.Eval();
+}
 
 bool Expression::uses(const std::string& variable) const
 {
-  for (std::size_t k = 0; k < _variables.size(); ++k)
+  for (std::size_t k : _compiled->used)
     if (_variables[k] == variable)
-      return uses_index(*_root, static_cast<int>(k));
+      return true;
   return false;
 }
 

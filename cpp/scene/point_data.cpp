@@ -2,7 +2,8 @@
 
 #include "../common/errors.h"
 
-#include <algorithm>
+#include <nanoflann.hpp>
+
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -10,8 +11,49 @@
 
 namespace muscle
 {
+
+/// The points as nanoflann reads them, and the tree over them.
+struct PointData::Tree
+{
+  explicit Tree(std::vector<std::array<double, 3>> p) : points(std::move(p)) {}
+  std::size_t kdtree_get_point_count() const { return points.size(); }
+  double kdtree_get_pt(std::size_t row, std::size_t d) const { return points[row][d]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const
+  {
+    return false;
+  }
+
+  const std::vector<std::array<double, 3>> points;
+  const nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Tree>, Tree, 3>
+      index{3, *this};
+};
+
 namespace
 {
+/// nanoflann result set: the nearest point, of equally near ones the lowest row
+/// (a rule of the data, not of the tree's layout).  nanoflann only looks at
+/// points closer than worstDist(); a little more than the best distance so far
+/// lets the ties through, and the points that rounding in the tree's bounds
+/// could hide.
+struct Nearest
+{
+  double best = std::numeric_limits<double>::infinity();
+  std::size_t row = 0;
+
+  double worstDist() const
+  {
+    return std::nextafter(best * (1 + 1e-12), std::numeric_limits<double>::infinity());
+  }
+  bool addPoint(double d2, std::size_t r)
+  {
+    if (d2 < best or (d2 == best and r < row))
+      best = d2, row = r;
+    return true;
+  }
+  bool full() const { return true; } // findNeighbors returns it
+};
+
 std::vector<std::string> split(const std::string& line)
 {
   std::vector<std::string> fields;
@@ -32,6 +74,7 @@ PointData::PointData(const std::string& path, std::size_t columns)
   std::ifstream in(path);
   if (!in)
     throw InputError(path + ": cannot be read");
+  std::vector<std::array<double, 3>> points;
   std::string line;
   int number = 0;
   auto where = [&] { return path + ":" + std::to_string(number) + ": "; };
@@ -41,7 +84,7 @@ PointData::PointData(const std::string& path, std::size_t columns)
     if (line.find_first_not_of(" \t\r") == std::string::npos or line[0] == '#')
       continue;
     const std::vector<std::string> fields = split(line);
-    if (_names.empty() and _points.empty())
+    if (_names.empty() and points.empty())
     {
       if (fields.size() < 4 or fields[0] != "x" or fields[1] != "y" or fields[2] != "z")
         throw InputError(where() + "the header must be x,y,z followed by value columns, found '"
@@ -81,86 +124,22 @@ PointData::PointData(const std::string& path, std::size_t columns)
       else
         _values.push_back(*value);
     }
-    _points.push_back(x);
+    points.push_back(x);
     _lines.push_back(number);
   }
-  if (_points.empty())
+  if (points.empty())
     throw InputError(path + ": no data rows");
 
-  // about two points per bucket
-  std::array<double, 3> upper;
-  for (int d = 0; d < 3; ++d)
-  {
-    _lower[d] = std::numeric_limits<double>::infinity();
-    upper[d] = -_lower[d];
-    for (const auto& p : _points)
-    {
-      _lower[d] = std::min(_lower[d], p[d]);
-      upper[d] = std::max(upper[d], p[d]);
-    }
-  }
-  const double per_axis = std::max(1.0, std::cbrt(_points.size() / 2.0));
-  for (int d = 0; d < 3; ++d)
-  {
-    const double extent = upper[d] - _lower[d];
-    _count[d] = extent > 0 ? static_cast<int>(std::ceil(per_axis)) : 1;
-    _width[d] = extent > 0 ? extent / _count[d] : 1;
-  }
-  _buckets.resize(static_cast<std::size_t>(_count[0]) * _count[1] * _count[2]);
-  for (std::size_t i = 0; i < _points.size(); ++i)
-  {
-    const auto b = bucket_of(_points[i]);
-    _buckets[(static_cast<std::size_t>(b[0]) * _count[1] + b[1]) * _count[2] + b[2]].push_back(i);
-  }
+  _tree = std::make_unique<const Tree>(std::move(points));
 }
 
-std::array<int, 3> PointData::bucket_of(const std::array<double, 3>& x) const
-{
-  std::array<int, 3> b;
-  for (int d = 0; d < 3; ++d)
-    b[d] = std::clamp(static_cast<int>(std::floor((x[d] - _lower[d]) / _width[d])), 0,
-                      _count[d] - 1);
-  return b;
-}
+PointData::~PointData() = default;
 
 std::size_t PointData::nearest(const std::array<double, 3>& x) const
 {
-  const auto home = bucket_of(x);
-  double best = std::numeric_limits<double>::infinity();
-  std::size_t best_row = 0;
-  const int rings = std::max({_count[0], _count[1], _count[2]});
-  for (int r = 0; r <= rings; ++r)
-  {
-    // points in ring r are at least (r - 1) bucket widths away
-    double reach = std::numeric_limits<double>::infinity();
-    for (int d = 0; d < 3; ++d)
-      if (_count[d] > 1)
-        reach = std::min(reach, (r - 1) * _width[d]);
-    if (r > 1 and reach * reach > best)
-      break;
-    for (int i = home[0] - r; i <= home[0] + r; ++i)
-      for (int j = home[1] - r; j <= home[1] + r; ++j)
-        for (int k = home[2] - r; k <= home[2] + r; ++k)
-        {
-          if (std::max({std::abs(i - home[0]), std::abs(j - home[1]), std::abs(k - home[2])}) != r)
-            continue;
-          if (i < 0 or j < 0 or k < 0 or i >= _count[0] or j >= _count[1] or k >= _count[2])
-            continue;
-          for (std::size_t row :
-               _buckets[(static_cast<std::size_t>(i) * _count[1] + j) * _count[2] + k])
-          {
-            const auto& p = _points[row];
-            const double d2 = (p[0] - x[0]) * (p[0] - x[0]) + (p[1] - x[1]) * (p[1] - x[1])
-                              + (p[2] - x[2]) * (p[2] - x[2]);
-            if (d2 < best)
-            {
-              best = d2;
-              best_row = row;
-            }
-          }
-        }
-  }
-  return best_row;
+  Nearest result;
+  _tree->index.findNeighbors(result, x.data(), nanoflann::SearchParams());
+  return result.row;
 }
 
 double PointData::value_at(std::size_t row, double t) const

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,13 +20,14 @@ public:
   /// `columns`: the number of value columns required (0: any).  InputError
   /// naming file, line and column for malformed rows.
   PointData(const std::string& path, std::size_t columns);
+  ~PointData();
 
   std::size_t columns() const { return _names.size(); }
   const std::vector<std::string>& names() const { return _names; }
   /// Are the value columns times (all headers numbers)?
   bool timed() const { return !_times.empty(); }
 
-  /// Row index of the point nearest to x.
+  /// Row index of the point nearest to x; on ties the first of them.
   std::size_t nearest(const std::array<double, 3>& x) const;
 
   double value(std::size_t row, std::size_t column) const
@@ -41,14 +43,10 @@ public:
 private:
   std::vector<std::string> _names;
   std::vector<double> _times;
-  std::vector<std::array<double, 3>> _points;
   std::vector<double> _values;
   std::vector<int> _lines;
-  // uniform bucket grid for the nearest-point search
-  std::array<double, 3> _lower{}, _width{};
-  std::array<int, 3> _count{};
-  std::vector<std::vector<std::size_t>> _buckets;
-  std::array<int, 3> bucket_of(const std::array<double, 3>& x) const;
+  struct Tree;
+  std::unique_ptr<const Tree> _tree; ///< the points, in a k-d tree
 };
 
 } // namespace muscle
