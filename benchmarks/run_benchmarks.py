@@ -22,6 +22,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
   fbar      the F-bar hexahedron (three-field Newton): accuracy at n = 1, 2, penalty
             sweep, MUMPS / GAMG / BoomerAMG on 1 and 2 ranks, n = 4 with GAMG at kappa = 100,
             the four models at n = 1
+  linesearch  every SNES line search (cp, bt, basic, l2) and the trust region on the
+            four models' fusiform runs (F-bar, n = 1) and the block demo scenes
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
   report    tables (stdout + Markdown), docs/images/speed_accuracy.png and
@@ -650,6 +652,99 @@ def knob_table(knobs):
 
 
 # ---------------------------------------------------------------------------
+# line searches: the default chosen by measurement
+# ---------------------------------------------------------------------------
+# cp, bt, basic, l2: PETSc's SNES line searches; tr: Newton with a trust region
+# (SNES newtontr) instead of a line search
+LINE_SEARCHES = ("cp", "bt", "basic", "l2", "tr")
+LINE_SEARCH_SCENES = ("block_graded", "block_wave", "block_cell_data", "block_muscle_tendon",
+                      "fusiform_passive_stretch")
+
+
+def line_search_options(method):
+    return ["-snes_type", "newtontr"] if method == "tr" else ["--line-search", method]
+
+
+def scene_run(args, scene, method, timeout):
+    """One muscle-run of a demo scene with a line search (cached with --reuse)."""
+    name = f"scene_{scene}_{method}"
+    out = os.path.join(args.work, "runs", name)
+    record_path = os.path.join(out, "record.json")
+    if args.reuse and os.path.exists(record_path):
+        with open(record_path) as f:
+            return json.load(f)
+    os.makedirs(out, exist_ok=True)
+    options = (["-snes_type", "newtontr"] if method == "tr"
+               else ["--set", f"solver.line_search={method}"])
+    command = [os.path.join(args.build, "muscle-run"),
+               os.path.join(ROOT, "demos", "scenes", scene + ".yaml"), "--out", out, "--quiet",
+               "--set", "output.fields=false", "--set", "output.plots=false", *options]
+    before = loadavg()
+    print("  " + " ".join(command), flush=True)
+    start = time.time()
+    try:
+        result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+        returncode, stderr = result.returncode, result.stderr
+    except subprocess.TimeoutExpired:
+        returncode, stderr = "timeout", f"killed after {timeout} s"
+    record = {"name": name, "scene": scene, "method": method, "returncode": returncode,
+              "elapsed": time.time() - start, "loadavg_before": before,
+              "command": " ".join(shlex.quote(c) for c in command), "completed": False}
+    summary_path = os.path.join(out, "summary.json")
+    if os.path.exists(summary_path) and os.path.getmtime(summary_path) >= start - 1:
+        with open(summary_path) as f:
+            summary = json.load(f)
+        record.update({k: summary.get(k) for k in (
+            "completed", "newton_iterations", "cutbacks", "steps", "wall_time")})
+    if returncode != 0:
+        record["error"] = stderr.strip()[-400:]
+    print(f"    {record['elapsed']:.1f} s  newton={record.get('newton_iterations')} "
+          f"cutbacks={record.get('cutbacks')} exit {returncode}", flush=True)
+    with open(record_path, "w") as f:
+        json.dump(record, f, indent=1)
+    return record
+
+
+def phase_linesearch(args, records):
+    """Every line search (and the trust region) on the four models' fusiform runs (F-bar,
+    n = 1, both cases) and on the block demo scenes; the default follows the table."""
+    for method in LINE_SEARCHES:
+        for model in ("ble", "wkm", "giant", "combi"):
+            for case in ("isometric", "free"):
+                r = fusiform(args, model=model, case=case, fbar=True, dt=args.map_dt,
+                             petsc=(" ".join(line_search_options(method)),),
+                             timeout=args.map_timeout, group="linesearch")
+                r["method"] = method
+                records.put("linesearch", r["name"], r)
+        for scene in LINE_SEARCH_SCENES:
+            r = scene_run(args, scene, method, args.map_timeout)
+            records.put("linesearch", r["name"], r)
+
+
+def line_search_table(runs):
+    """Newton iterations (cutbacks) per case and method; a failed run shows its exit."""
+    cases, cells = [], {}
+    for r in runs.values():
+        case = r.get("scene") or f"fusiform {r['model']} {r['case']}"
+        if case not in cases:
+            cases.append(case)
+        if r.get("completed"):
+            text = f"{r['newton_iterations']} ({r['cutbacks']})"
+        else:
+            text = f"fails (exit {r.get('returncode')})"
+        cells[(case, r["method"])] = (text, r)
+    rows = [[case] + [cells.get((case, m), ("-",))[0] for m in LINE_SEARCHES]
+            for case in sorted(cases)]
+    totals = ["**completed / Newton its in all / wall [s]**"]
+    for m in LINE_SEARCHES:
+        done = [c[1] for (case, method), c in cells.items() if method == m]
+        ok = [r for r in done if r.get("completed")]
+        totals.append(f"{len(ok)}/{len(done)} / {sum(r['newton_iterations'] for r in ok)} / "
+                      f"{sum(r.get('wall_time') or 0 for r in ok):.0f}")
+    return md_table(["case"] + list(LINE_SEARCHES), rows + [totals])
+
+
+# ---------------------------------------------------------------------------
 # report
 # ---------------------------------------------------------------------------
 def md_table(header, rows):
@@ -955,6 +1050,9 @@ def phase_report(args, records):
     if data.get("knobs"):
         text.append("## Anti-locking Q1 (BLE) and the activation root tolerance\n\n"
                     + knob_table(data["knobs"]))
+    if data.get("linesearch"):
+        text.append("## Line searches (Newton iterations, cutbacks in brackets)\n\n"
+                    + line_search_table(data["linesearch"]))
     report = "\n\n".join(text) + "\n"
     print(report)
     with open(os.path.join(args.work, "tables.md"), "w") as f:
@@ -973,6 +1071,7 @@ def phase_report(args, records):
                "extrapolations": extrapolations,
                "knob_runs": list(data.get("knobs", {}).values()),
                "fbar_runs": list(data.get("fbar", {}).values()),
+               "line_search_runs": list(data.get("linesearch", {}).values()),
                "experiments": data.get("experiments", {})}
     if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
         with open(args.results) as f:
@@ -1028,6 +1127,7 @@ def main():
               **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
                  for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
               "knobs": phase_knobs, "fbar": phase_fbar, "restore": phase_restore,
+              "linesearch": phase_linesearch,
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

@@ -33,12 +33,12 @@ struct NewtonOptions
   bool fbar_cell_unknowns = true;
   /// Largest constraint violation |J0(u) - theta| accepted at convergence.
   double fbar_constraint_tolerance = 1e-10;
-  /// PETSc line search: "bt" (residual-norm backtracking) keeps full steps near
-  /// the solution (quadratic convergence, tested); "cp" minimises along the
-  /// direction with the residual as the energy gradient and is the better
-  /// choice where the residual norm is a poor merit function (the fusiform
-  /// muscle: bt needs ~10x more iterations there, see its --line-search).
-  std::string line_search = "bt";
+  /// PETSc line search: "cp" minimises along the direction with the residual
+  /// as the energy's gradient; chosen by measurement (BENCHMARKS.md, "Line
+  /// searches": the fewest Newton iterations over the fusiform runs and the
+  /// block scenes; "bt", residual-norm backtracking, 1.66x more, the residual
+  /// norm being a poor merit function under the stiff penalty).
+  std::string line_search = "cp";
   /// Give up early when the residual norm fell by less than
   /// `stagnation_reduction` (relative) over the last `stagnation_window`
   /// iterations: a line search creeping with tiny steps (seen with cp on
@@ -98,6 +98,8 @@ public:
 
   /// The last assembled system matrix (reduced if constrained).
   Mat system_matrix() const;
+
+  const NewtonOptions& options() const { return _options; }
 
   /// The KSP of the displacement system (with F-bar cell unknowns: of the
   /// condensed system), e.g. to change its tolerances between solves.

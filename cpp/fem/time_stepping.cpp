@@ -76,6 +76,11 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
   if (f.reason.find("DIVERGED_LINEAR_SOLVE") != std::string::npos)
     // a smaller step rarely rescues an iterative solver that stalls (BENCHMARKS.md)
     f.advice = linear_failure_advice(report.linear_failure);
+  else if (f.reason.find("DIVERGED_LINE_SEARCH") != std::string::npos)
+    f.advice = "the line search (" + _solver.options().line_search
+               + ") found no step that lowers the residual: another line search (scene "
+                 "solver.line_search, --line-search: cp, bt, basic, l2; BENCHMARKS.md, "
+                 "\"Line searches\"), then a smaller time step";
   else if (report.non_finite and global.value > 0)
     // nothing inverted, yet the residual overflows: an input, not the step
     f.advice = "the residual is not finite although no element inverts, so an input "

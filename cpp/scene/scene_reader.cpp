@@ -840,7 +840,6 @@ Scene parse_scene(const std::string& text, const std::string& name,
     t["growth_factor"].fail("'" + t["growth_factor"].text() + "' must be >= 1");
 
   // solver
-  scene.newton.line_search = "cp";
   const Entry s = top["solver"];
   if (s.defined())
   {

@@ -66,10 +66,6 @@ struct Settings
 Settings parse(std::vector<std::string> args)
 {
   Settings s;
-  // The coupled penalty softens in volumetric tension near the clamped ends:
-  // residual-norm backtracking took 107 Newton iterations for COMBI's first
-  // 5 ms step at n = 1, the critical-point search 9.
-  s.newton.line_search = "cp";
   CLI::App app{"Fusiform muscle contraction (isometric or free) for one model.\n"
                "PETSc options (-snes_monitor, -ksp_type ...) are passed through."};
   app.add_option("--model", s.model, "ble, wkm, giant or combi")->capture_default_str();
@@ -121,7 +117,8 @@ Settings parse(std::vector<std::string> args)
   app.add_option("--linear-rtol", s.newton.linear_rtol,
                  "relative tolerance of the iterative linear solvers")->capture_default_str();
   app.add_option("--line-search", s.newton.line_search,
-                 "PETSc line search: cp (energy-like, default here) or bt, basic, l2")
+                 "PETSc line search: cp (default, BENCHMARKS.md \"Line searches\"), bt, "
+                 "basic or l2")
       ->check(CLI::IsMember(NewtonOptions::line_searches()))
       ->capture_default_str();
   app.add_option("--max-cutbacks", s.max_cutbacks, "halvings of a failing step")
