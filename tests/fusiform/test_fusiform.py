@@ -1,13 +1,22 @@
 #!/usr/bin/python3
-"""Fusiform-muscle tests (issue: fusiform muscle).  Each subcommand is one ctest:
+"""Fusiform-muscle tests (issue: fusiform muscle), run by pytest.  ctest runs one group
+of test functions per test (P = python3 -m pytest -p no:cacheprovider
+tests/fusiform/test_fusiform.py --build B):
 
-    test_fusiform.py run      --build B --model M --element E [--dt DT]  both cases finish
-    test_fusiform.py findings --build B [--element E]                    the paper's findings
-    test_fusiform.py parity   --build B                                   1 vs 2 MPI ranks
-    test_fusiform.py failure  --build B                                   failure without loss
+    P -k "test_run and E_M"        model M on element E: both cases finish, forces consistent
+    P -k "test_findings and [E]"   the paper's findings on E = fbar or q2 (after the E runs)
+    P -k test_parity               1 vs 2 MPI ranks
+    P -k test_failure              failure without loss
 
-E is q1, q2 or fbar (the paper's F-bar hexahedron).  `run` leaves its summaries
-under B/test_out/fusiform_<E>/ for `findings`.
+M is ble, wkm, giant or combi; E is q1, q2 or fbar (the paper's F-bar hexahedron).
+The test_run_* tests leave their summaries under B/test_out/fusiform_<E>/ for
+test_findings_*.  The old command line still works and runs the same tests:
+
+    test_fusiform.py run      --build B --model M --element E [--dt DT]
+    test_fusiform.py findings --build B [--element E]
+    test_fusiform.py parity   --build B
+    test_fusiform.py failure  --build B
+
 References are independent of the code under test: the isometric force is
 computed twice (section force at mid-length and reaction at the origin, two
 different integrals that equilibrium makes equal); a free muscle carries no net
@@ -15,187 +24,357 @@ axial force; the findings are the paper's (section "Fusiform muscle
 contraction"); parity compares two parallel decompositions.
 """
 import argparse
+import collections
 import csv
+import functools
 import json
 import os
 import subprocess
 import sys
 
-MODELS = ["ble", "wkm", "giant", "combi"]
+import pytest
+
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                                 "support"))
-from checks import all_finite, check, failures, finite_json  # noqa: E402
+from checks import all_finite, finite_json  # noqa: E402
+
+MODELS = ["ble", "wkm", "giant", "combi"]
+CASES = ["isometric", "free"]
+ELEMENT_OPTIONS = {"q1": ["--degree", "1", "--no-fbar"], "q2": ["--degree", "2"],
+                   "fbar": ["--fbar"]}
+# Q2 costs about 10 s per Newton iteration: 10 ms steps (quasi-static and
+# hyperelastic, so the coarse step does not change the state at t_end)
+ELEMENT_DT = {"q2": 0.01}
+FORCE_SPREAD = 0.05       # paper: "the computed force maxima are close to equal"
+SHORTENING_SPREAD = 0.05  # paper: WKM, GIANT, COMBI "total shortening is close to equal"
+
+Run = collections.namedtuple("Run", "code summary series fieldnames output")
+
+
+def read_json(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
 
 
 def fusiform(build, out, options, ranks=1):
+    """Run the fusiform binary; what it wrote (an empty summary or series if it wrote none)."""
     command = [os.path.join(build, "fusiform"), *options, "--out", out, "--quiet",
                "--no-fields"]
     if ranks > 1:
         command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks),
                    *command]
     result = subprocess.run(command, capture_output=True, text=True)
-    if result.returncode != 0:
-        print(result.stdout[-2000:], result.stderr[-2000:])
-    summary_path = os.path.join(out, "summary.json")
-    summary = json.load(open(summary_path)) if os.path.exists(summary_path) else {}
-    with open(os.path.join(out, "series.csv")) as f:
-        series = list(csv.DictReader(f))
-    return result.returncode, summary, series
-
-
-ELEMENT_OPTIONS = {"q1": ["--degree", "1", "--no-fbar"], "q2": ["--degree", "2"],
-                   "fbar": ["--fbar"]}
+    summary = read_json(os.path.join(out, "summary.json")) or {}
+    try:
+        with open(os.path.join(out, "series.csv")) as f:
+            reader = csv.DictReader(f)
+            series, fieldnames = list(reader), reader.fieldnames
+    except OSError:
+        series, fieldnames = [], None
+    return Run(result.returncode, summary, series, fieldnames,
+               (result.stdout[-1000:] + result.stderr[-1000:]).strip())
 
 
 def out_dir(build, element):
     return os.path.join(build, "test_out", f"fusiform_{element}")
 
 
-def run(args):
-    """Both cases of one model finish; forces are consistent."""
-    options = ["--model", args.model, "--refinement", "1", *ELEMENT_OPTIONS[args.element]]
-    if args.dt:
-        options += ["--dt", str(args.dt)]
-    forces = {}
-    for case in ("isometric", "free"):
-        out = os.path.join(out_dir(args.build, args.element), f"{args.model}_{case}")
-        code, summary, series = fusiform(args.build, out, options + ["--case", case])
-        check(code == 0 and summary.get("completed"), f"{args.model} {case}: run completes "
-              f"(exit {code}, {summary.get('steps')} steps, {summary.get('cutbacks')} cutbacks)")
-        check(series and abs(float(series[-1]["t"]) - 0.15) < 1e-9,
-              f"{args.model} {case}: series reaches t = 0.15 s")
-        finite = all_finite(series)
-        check(finite, f"{args.model} {case}: every value in series.csv is finite")
-        forces[case] = [(float(r["F33"]), float(r["F33_origin"])) for r in series]
-    iso = forces["isometric"]
+# ---------------------------------------------------------------------------
+# run: both cases of one model on one element finish; the forces are consistent
+# ---------------------------------------------------------------------------
+RUNS = [pytest.param(element, model, id=f"{element}_{model}",
+                     marks=[pytest.mark.long] if element == "q2" else [])
+        for element in ELEMENT_OPTIONS for model in MODELS]
+
+
+@pytest.fixture(scope="module")
+def runs(build, request):
+    """runs(element, model, case): the run, made once (minutes) and shared by the checks."""
+    dt = request.config.getoption("--fusiform-dt")
+
+    @functools.lru_cache(maxsize=None)
+    def get(element, model, case):
+        options = ["--model", model, "--refinement", "1", *ELEMENT_OPTIONS[element]]
+        step = dt or ELEMENT_DT.get(element)
+        if step:
+            options += ["--dt", str(step)]
+        out = os.path.join(out_dir(build, element), f"{model}_{case}")
+        return fusiform(build, out, options + ["--case", case])
+    return get
+
+
+@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("element, model", RUNS)
+def test_run_completes(runs, element, model, case):
+    r = runs(element, model, case)
+    assert r.code == 0 and r.summary.get("completed"), (
+        f"{model} {case}: run completes (exit {r.code}, {r.summary.get('steps')} steps, "
+        f"{r.summary.get('cutbacks')} cutbacks) {r.output}")
+
+
+@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("element, model", RUNS)
+def test_run_reaches_end(runs, element, model, case):
+    series = runs(element, model, case).series
+    last = float(series[-1]["t"]) if series else None
+    assert last is not None and abs(last - 0.15) < 1e-9, (
+        f"{model} {case}: series reaches t = 0.15 s (last row at t = {last})")
+
+
+@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("element, model", RUNS)
+def test_run_finite(runs, element, model, case):
+    series = runs(element, model, case).series
+    assert series and all_finite(series), (
+        f"{model} {case}: every value in series.csv is finite ({len(series)} rows)")
+
+
+def forces(runs, element, model, case):
+    series = runs(element, model, case).series
+    assert series, f"{model} {case}: no series.csv rows (run failed)"
+    return [(float(r["F33"]), float(r["F33_origin"])) for r in series]
+
+
+@pytest.mark.parametrize("element, model", RUNS)
+def test_run_section_force_equals_origin_reaction(runs, element, model):
+    iso = forces(runs, element, model, "isometric")
     scale = max(abs(a) for a, _ in iso)
     worst = max(abs(a - b) for a, b in iso) / scale
-    check(worst < 1e-6, f"{args.model}: mid-section force equals origin reaction "
-          f"(max relative difference {worst:.1e})")
-    free = max(abs(a) for a, _ in forces["free"]) / scale
-    check(free < 1e-6, f"{args.model}: free contraction carries no axial force "
-          f"(|F33| / F_iso = {free:.1e})")
+    assert worst < 1e-6, (f"{model}: mid-section force equals origin reaction "
+                          f"(max relative difference {worst:.1e})")
 
 
-def findings(args):
-    """The paper's findings, on a locking-free element (F-bar, as in the paper, or Q2)."""
-    summary = {}
-    for model in MODELS:
-        for case in ("isometric", "free"):
-            path = os.path.join(out_dir(args.build, args.element), f"{model}_{case}",
-                                "summary.json")
-            summary[(model, case)] = json.load(open(path)) if os.path.exists(path) else {}
+@pytest.mark.parametrize("element, model", RUNS)
+def test_run_free_carries_no_axial_force(runs, element, model):
+    scale = max(abs(a) for a, _ in forces(runs, element, model, "isometric"))
+    free = max(abs(a) for a, _ in forces(runs, element, model, "free")) / scale
+    assert free < 1e-6, (f"{model}: free contraction carries no axial force "
+                         f"(|F33| / F_iso = {free:.1e})")
+
+
+# ---------------------------------------------------------------------------
+# findings: the paper's, on a locking-free element (F-bar, as in the paper, or
+# Q2), from the summaries the test_run_* tests left
+# ---------------------------------------------------------------------------
+FINDINGS = [pytest.param("fbar", id="fbar"), pytest.param("q2", id="q2", marks=pytest.mark.long)]
+
+
+def findings(build, element):
+    """Isometric force F33 and free stretch epsilon of every model."""
+    summary = {(m, c): read_json(os.path.join(out_dir(build, element), f"{m}_{c}",
+                                              "summary.json")) or {}
+               for m in MODELS for c in CASES}
     forces = {m: summary[(m, "isometric")].get("F33") for m in MODELS}
     eps = {m: summary[(m, "free")].get("epsilon") for m in MODELS}
-    print("F33 [mN]:", forces)
-    print("epsilon:", eps)
-    if None in forces.values() or None in eps.values():
-        check(False, f"all {args.element} runs present "
-              f"(run the fusiform_{args.element}_* tests first)")
-        return
+    missing = [f"{m}_{c}" for m, c in summary
+               if (forces if c == "isometric" else eps)[m] is None]
+    assert not missing, (f"all {element} runs present (run the fusiform_{element}_* tests "
+                         f"first; missing {missing})")
+    return forces, eps
+
+
+@pytest.mark.parametrize("element", FINDINGS)
+def test_findings_isometric_forces_close(build, record, element):
+    forces, _ = findings(build, element)
+    record(f"{element} isometric F33 [mN]: {forces}")
     spread = (max(forces.values()) - min(forces.values())) / min(forces.values())
     # paper: "the computed force maxima are close to equal"
-    check(spread < args.force_spread, f"isometric forces of the four models within "
-          f"{100 * args.force_spread:.0f} % (spread {100 * spread:.2f} %)")
+    assert spread < FORCE_SPREAD, (f"isometric forces of the four models within "
+                                   f"{100 * FORCE_SPREAD:.0f} % (spread {100 * spread:.2f} %; "
+                                   f"F33 [mN] {forces})")
+
+
+@pytest.mark.parametrize("element", FINDINGS)
+def test_findings_ble_shortens_most(build, record, element):
+    _, eps = findings(build, element)
+    record(f"{element} free epsilon: {eps}")
     # paper: "we observe a higher shortening for the BLE-model"
     others = [eps[m] for m in ("wkm", "giant", "combi")]
-    check(eps["ble"] < min(others), f"BLE shortens most (epsilon {eps['ble']:.4f} < "
-          f"{min(others):.4f})")
+    assert eps["ble"] < min(others), (f"BLE shortens most (epsilon {eps['ble']:.4f} < "
+                                      f"{min(others):.4f}; epsilon {eps})")
+
+
+@pytest.mark.parametrize("element", FINDINGS)
+def test_findings_shortening_close(build, element):
+    _, eps = findings(build, element)
     # paper: "for the GIANT-, WKM-, and COMBI-models, the total shortening is close to equal"
-    shortening = [1 - e for e in others]
+    shortening = [1 - eps[m] for m in ("wkm", "giant", "combi")]
     close = (max(shortening) - min(shortening)) / max(shortening)
-    check(close < args.shortening_spread, f"shortening of WKM, GIANT, COMBI within "
-          f"{100 * args.shortening_spread:.0f} % of each other ({100 * close:.2f} %)")
+    assert close < SHORTENING_SPREAD, (f"shortening of WKM, GIANT, COMBI within "
+                                       f"{100 * SHORTENING_SPREAD:.0f} % of each other "
+                                       f"({100 * close:.2f} %; epsilon {eps})")
 
 
-def parity(args):
-    """Same series on 1 and 2 MPI ranks (relative difference < 1e-8)."""
-    for case in ("isometric", "free"):
-        series = []
-        for ranks in (1, 2):
-            out = os.path.join(args.build, "test_out", "parity", f"{case}_np{ranks}")
-            code, summary, rows = fusiform(args.build, out,
-                                           ["--model", "giant", "--case", case,
-                                            "--refinement", "1", "--t-end", "0.004"], ranks)
-            check(code == 0 and summary.get("ranks") == ranks,
-                  f"giant {case} on {ranks} rank(s) completes")
-            series.append(rows)
-        for column in ("F33", "epsilon", "volume_change"):
-            a = [float(r[column]) for r in series[0]]
-            b = [float(r[column]) for r in series[1]]
-            scale = max(max(abs(x) for x in a), 1e-300)
-            if case == "free" and column == "F33":
-                continue  # zero up to round-off: a relative difference means nothing
-            diff = max(abs(x - y) for x, y in zip(a, b)) / scale if len(a) == len(b) else 1
-            check(len(a) == len(b) and diff < 1e-8,
-                  f"{case} {column}: 1 vs 2 ranks relative difference {diff:.1e} < 1e-8")
+# ---------------------------------------------------------------------------
+# parity: same series on 1 and 2 MPI ranks (relative difference < 1e-8)
+# ---------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def parity_runs(build):
+    @functools.lru_cache(maxsize=None)
+    def get(case, ranks):
+        out = os.path.join(build, "test_out", "parity", f"{case}_np{ranks}")
+        return fusiform(build, out, ["--model", "giant", "--case", case, "--refinement", "1",
+                                     "--t-end", "0.004"], ranks)
+    return get
 
 
-def failure(args):
-    """A Newton failure cuts the step back; at the limit the run stops with a message
-    (what, where, what to try), exit status 3, and its last converged state written."""
-    out = os.path.join(args.build, "test_out", "failure")
-    # one Newton iteration per attempt cannot converge: every attempt fails
-    command = [os.path.join(args.build, "fusiform"), "--model", "combi", "--case", "free",
+@pytest.mark.parametrize("ranks", [1, 2], ids=["1 rank", "2 ranks"])
+@pytest.mark.parametrize("case", CASES)
+def test_parity_completes(parity_runs, case, ranks):
+    r = parity_runs(case, ranks)
+    assert r.code == 0 and r.summary.get("ranks") == ranks, (
+        f"giant {case} on {ranks} rank(s) completes (exit {r.code}, "
+        f"ranks {r.summary.get('ranks')}) {r.output}")
+
+
+# the free F33 is zero up to round-off: a relative difference means nothing
+PARITY = [(case, column) for case in CASES for column in ("F33", "epsilon", "volume_change")
+          if not (case == "free" and column == "F33")]
+
+
+@pytest.mark.parametrize("case, column", PARITY)
+def test_parity_series_agree(parity_runs, case, column):
+    a, b = ([float(r[column]) for r in parity_runs(case, ranks).series] for ranks in (1, 2))
+    assert a, f"giant {case} on 1 rank: no series rows"
+    scale = max(max(abs(x) for x in a), 1e-300)
+    diff = max(abs(x - y) for x, y in zip(a, b)) / scale if len(a) == len(b) else 1
+    assert len(a) == len(b) and diff < 1e-8, (
+        f"{case} {column}: 1 vs 2 ranks relative difference {diff:.1e} < 1e-8 "
+        f"({len(a)} and {len(b)} rows)")
+
+
+# ---------------------------------------------------------------------------
+# failure: a Newton failure cuts the step back; at the limit the run stops with a
+# message (what, where, what to try), exit status 3, and its last converged
+# state written
+# ---------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def failed(build):
+    """One Newton iteration per attempt cannot converge: every attempt fails."""
+    out = os.path.join(build, "test_out", "failure")
+    command = [os.path.join(build, "fusiform"), "--model", "combi", "--case", "free",
                "--refinement", "1", "--dt", "0.05", "--max-cutbacks", "2", "--out", out,
                "--quiet", "-snes_max_it", "1"]
     result = subprocess.run(command, capture_output=True, text=True)
-    message = result.stderr.strip()
-    print(message)
-    check(result.returncode == 3, f"exit status 3 for a failed solve (got {result.returncode})")
-    for part in ("Newton failed at step 1", "t = 0", "Try:", "cell"):
-        check(part in message, f"the message names '{part}'")
-    check("PETSC ERROR" not in result.stderr and "Traceback" not in result.stderr,
-          "no PETSc stack trace")
-    summary = json.load(open(os.path.join(out, "summary.json")))
-    check(summary.get("completed") is False, "summary.json written with completed = false")
+    try:
+        with open(os.path.join(out, "series.csv")) as f:
+            reader = csv.DictReader(f)
+            rows, fieldnames = list(reader), reader.fieldnames
+    except OSError:
+        rows, fieldnames = None, None
+    return dict(code=result.returncode, stderr=result.stderr, message=result.stderr.strip(),
+                summary=read_json(os.path.join(out, "summary.json")), rows=rows,
+                fieldnames=fieldnames, fields=os.path.exists(os.path.join(out, "fields.xdmf")))
+
+
+def test_failure_exit_status_3(failed):
+    assert failed["code"] == 3, (f"exit status 3 for a failed solve (got {failed['code']}) "
+                                 f"{failed['message'][-500:]}")
+
+
+@pytest.mark.parametrize("part", ["Newton failed at step 1", "t = 0", "Try:", "cell"])
+def test_failure_message_names(failed, part):
+    assert part in failed["message"], f"the message names '{part}': {failed['message']}"
+
+
+def test_failure_no_petsc_stack_trace(failed):
+    assert "PETSC ERROR" not in failed["stderr"] and "Traceback" not in failed["stderr"], (
+        f"no PETSc stack trace: {failed['stderr'][-1000:]}")
+
+
+def test_failure_summary_written_not_completed(failed):
+    summary = failed["summary"] or {}
+    assert summary.get("completed") is False, (
+        f"summary.json written with completed = false (got {failed['summary']})")
+
+
+def test_failure_counts_failed_attempts(failed):
     # --max-cutbacks 2: the step and its two halvings, each failed
-    failure = summary.get("failure", {})
-    check(failure.get("cutbacks") == 3 and failure.get("t_converged") == 0.0,
-          f"the failure counts 3 failed attempts from t = 0 (got {failure})")
-    check(os.path.exists(os.path.join(out, "fields.xdmf")), "fields of the last converged state")
-    with open(os.path.join(out, "series.csv")) as f:
-        reader = csv.DictReader(f)
-        rows = list(reader)
+    failure = (failed["summary"] or {}).get("failure", {})
+    assert failure.get("cutbacks") == 3 and failure.get("t_converged") == 0.0, (
+        f"the failure counts 3 failed attempts from t = 0 (got {failure})")
+
+
+def test_failure_fields_of_last_converged_state(failed):
+    assert failed["fields"], "fields of the last converged state (fields.xdmf)"
+
+
+def test_failure_series_header(failed):
+    names = failed["fieldnames"]
+    assert names is not None and "t" in names and "F33" in names, (
+        f"series.csv has its header (got {names})")
+
+
+def test_failure_one_row_per_converged_step(failed):
     # no step converged: a header and no rows, one row per converged step
-    check(reader.fieldnames is not None and "t" in reader.fieldnames and "F33" in reader.fieldnames,
-          "series.csv has its header")
-    check(len(rows) == summary.get("steps") == 0, f"one row per converged step ({len(rows)} rows)")
-    check(finite_json(summary), "no NaN (null) in summary.json")
-    # a stalled iterative linear solver gets advice about the linear solver, not the step
-    command = [os.path.join(args.build, "fusiform"), "--model", "combi", "--refinement", "1",
+    rows, steps = failed["rows"], (failed["summary"] or {}).get("steps")
+    assert rows is not None and len(rows) == steps == 0, (
+        f"one row per converged step ({rows and len(rows)} rows, {steps} steps)")
+
+
+def test_failure_summary_finite(failed):
+    assert failed["summary"] is not None and finite_json(failed["summary"]), (
+        f"no NaN (null) in summary.json ({failed['summary']})")
+
+
+@pytest.fixture(scope="module")
+def linear_failure(build):
+    """A stalled iterative linear solver."""
+    out = os.path.join(build, "test_out", "failure_linear")
+    command = [os.path.join(build, "fusiform"), "--model", "combi", "--refinement", "1",
                "--dt", "0.05", "--max-cutbacks", "1", "--linear-solver", "gmres-gamg",
-               "--out", out + "_linear", "--quiet", "--no-fields", "-ksp_max_it", "2"]
+               "--out", out, "--quiet", "--no-fields", "-ksp_max_it", "2"]
     result = subprocess.run(command, capture_output=True, text=True)
-    message = result.stderr.strip()
-    print(message)
-    check(result.returncode == 3 and "DIVERGED_LINEAR_SOLVE" in message,
-          f"a linear-solver failure is reported as such (exit {result.returncode})")
-    check("--linear-solver lu" in message, "the advice names the direct solver")
-    # options with a fixed set of values are checked where they are read
-    for option, value in (("--linear-solver", "auto"), ("--line-search", "newton"),
-                          ("--case", "relaxed"), ("--cell", "prism")):
-        result = subprocess.run([os.path.join(args.build, "fusiform"), option, value, "--out",
-                                 out + "_option"], capture_output=True, text=True)
-        check(result.returncode == 2 and value in result.stderr and "PETSC ERROR" not in result.stderr,
-              f"fusiform {option} {value}: exit {result.returncode}, {result.stderr.strip()[-120:]}")
+    return result.returncode, result.stderr.strip()
+
+
+def test_failure_linear_solver_reported(linear_failure):
+    code, message = linear_failure
+    assert code == 3 and "DIVERGED_LINEAR_SOLVE" in message, (
+        f"a linear-solver failure is reported as such (exit {code}): {message}")
+
+
+def test_failure_linear_advice_names_direct_solver(linear_failure):
+    # advice about the linear solver, not the step
+    assert "--linear-solver lu" in linear_failure[1], (
+        f"the advice names the direct solver: {linear_failure[1]}")
+
+
+@pytest.mark.parametrize("option, value", [("--linear-solver", "auto"), ("--line-search", "newton"),
+                                           ("--case", "relaxed"), ("--cell", "prism")])
+def test_failure_option_value_refused(build, option, value):
+    """Options with a fixed set of values are checked where they are read."""
+    result = subprocess.run([os.path.join(build, "fusiform"), option, value, "--out",
+                             os.path.join(build, "test_out", "failure_option")],
+                            capture_output=True, text=True)
+    assert (result.returncode == 2 and value in result.stderr
+            and "PETSC ERROR" not in result.stderr), (
+        f"fusiform {option} {value}: exit {result.returncode}, {result.stderr.strip()[-120:]}")
 
 
 def main():
+    """The command line of the former driver: runs the matching tests through pytest."""
     parser = argparse.ArgumentParser()
     parser.add_argument("command", choices=["run", "findings", "parity", "failure"])
     parser.add_argument("--build", required=True)
     parser.add_argument("--model", choices=MODELS)
     parser.add_argument("--element", choices=sorted(ELEMENT_OPTIONS), default="fbar")
     parser.add_argument("--dt", type=float)
-    parser.add_argument("--force-spread", type=float, default=0.05)
-    parser.add_argument("--shortening-spread", type=float, default=0.05)
     args = parser.parse_args()
-    {"run": run, "findings": findings, "parity": parity, "failure": failure}[args.command](args)
-    if failures:
-        print(f"{len(failures)} check(s) failed")
-        return 1
-    return 0
+    if args.command == "run" and not args.model:
+        parser.error("run needs --model")
+    selection = {"run": f"test_run and {args.element}_{args.model}",
+                 "findings": f"test_findings and [{args.element}]",
+                 "parity": "test_parity", "failure": "test_failure"}[args.command]
+    options = [os.path.abspath(__file__), "-q", "-p", "no:cacheprovider", "-k", selection,
+               "--build", args.build]
+    if args.dt:
+        options += ["--fusiform-dt", str(args.dt)]
+    sys.dont_write_bytecode = True
+    return int(pytest.main(options))
 
 
 if __name__ == "__main__":

@@ -1,15 +1,6 @@
-"""What the Python test drivers share: named checks that are counted, and the
-finiteness of what a run wrote (nlohmann writes NaN and inf as null)."""
+"""What the Python tests share: the finiteness of what a run wrote (nlohmann
+writes NaN and inf as null)."""
 import math
-
-failures = []
-
-
-def check(condition, message):
-    """Print ok/FAIL with the message; a failure is counted, the driver goes on."""
-    print(("ok    " if condition else "FAIL  ") + message, flush=True)
-    if not condition:
-        failures.append(message)
 
 
 def finite_json(value):
