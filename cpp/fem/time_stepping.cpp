@@ -81,11 +81,14 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
                + ") found no step that lowers the residual: another line search (scene "
                  "solver.line_search, --line-search: cp, bt, basic, l2; BENCHMARKS.md, "
                  "\"Line searches\"), then a smaller time step";
-  else if (report.non_finite and global.value > 0)
-    // nothing inverted, yet the residual overflows: an input, not the step
-    f.advice = "the residual is not finite although no element inverts, so an input "
-               "overflows: check the activation scale, the loads and the material parameters "
-               "(a smaller time step cannot help)";
+  else if (report.non_finite and global.value > 0
+           and (report.residual_norms.empty() or !std::isfinite(report.residual_norms[0])))
+    // not finite already at the last converged state with the new time's loads
+    // (a trial point of the line search may overflow; that is not this): an
+    // input, not the step
+    f.advice = "the residual is not finite at the last converged state with the loads of the "
+               "new time, so an input overflows: check the activation scale, the loads and the "
+               "material parameters (a smaller time step cannot help)";
   else if (global.value <= 0)
     f.advice = "elements invert: use a smaller time step (--dt, scene time.step), a finer mesh, or "
                "quadratic elements";

@@ -343,6 +343,27 @@ def test_failure_linear_advice_names_direct_solver(linear_failure):
         f"the advice names the direct solver: {linear_failure[1]}")
 
 
+@pytest.fixture(scope="module")
+def line_search_failure(build):
+    """A line search that may not shorten the step (minimum step length 0.99)."""
+    out = os.path.join(build, "test_out", "failure_line_search")
+    command = [os.path.join(build, "fusiform"), "--model", "combi", "--case", "free",
+               "--refinement", "1", "--no-fbar", "--dt", "0.15", "--max-cutbacks", "0",
+               "--line-search", "bt", "--out", out, "--quiet", "--no-fields",
+               "-snes_linesearch_minlambda", "0.99"]
+    result = subprocess.run(command, capture_output=True, text=True)
+    return result.returncode, result.stderr.strip()
+
+
+def test_failure_line_search_named_in_the_advice(line_search_failure):
+    code, message = line_search_failure
+    assert code == 3 and "DIVERGED_LINE_SEARCH" in message, (
+        f"a line-search failure is reported as such (exit {code}): {message}")
+    advice = message.split("Try:")[-1]
+    assert "the line search (bt)" in advice and "--line-search" in advice, (
+        f"the advice names the line search: {advice}")
+
+
 @pytest.mark.parametrize("option, value", [("--linear-solver", "auto"), ("--line-search", "newton"),
                                            ("--case", "relaxed"), ("--cell", "prism")])
 def test_failure_option_value_refused(build, option, value):
