@@ -27,7 +27,6 @@ import argparse
 import collections
 import csv
 import functools
-import json
 import os
 import subprocess
 import sys
@@ -36,7 +35,7 @@ import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                                 "support"))
-from checks import all_finite, finite_json  # noqa: E402
+from checks import all_finite, finite_json, read_json  # noqa: E402
 
 MODELS = ["ble", "wkm", "giant", "combi"]
 CASES = ["isometric", "free"]
@@ -49,14 +48,6 @@ FORCE_SPREAD = 0.05       # paper: "the computed force maxima are close to equal
 SHORTENING_SPREAD = 0.05  # paper: WKM, GIANT, COMBI "total shortening is close to equal"
 
 Run = collections.namedtuple("Run", "code summary series fieldnames output")
-
-
-def read_json(path):
-    try:
-        with open(path) as f:
-            return json.load(f)
-    except (OSError, ValueError):
-        return None
 
 
 def fusiform(build, out, options, ranks=1):
@@ -320,15 +311,20 @@ def test_failure_summary_finite(failed):
         f"no NaN (null) in summary.json ({failed['summary']})")
 
 
+def stopped_run(build, name, options):
+    """fusiform with options that make it stop: (exit status, stop message)."""
+    out = os.path.join(build, "test_out", name)
+    result = subprocess.run([os.path.join(build, "fusiform"), *options, "--out", out, "--quiet",
+                             "--no-fields"], capture_output=True, text=True)
+    return result.returncode, result.stderr.strip()
+
+
 @pytest.fixture(scope="module")
 def linear_failure(build):
     """A stalled iterative linear solver."""
-    out = os.path.join(build, "test_out", "failure_linear")
-    command = [os.path.join(build, "fusiform"), "--model", "combi", "--refinement", "1",
-               "--dt", "0.05", "--max-cutbacks", "1", "--linear-solver", "gmres-gamg",
-               "--out", out, "--quiet", "--no-fields", "-ksp_max_it", "2"]
-    result = subprocess.run(command, capture_output=True, text=True)
-    return result.returncode, result.stderr.strip()
+    return stopped_run(build, "failure_linear",
+                       ["--model", "combi", "--refinement", "1", "--dt", "0.05",
+                        "--max-cutbacks", "1", "--linear-solver", "gmres-gamg", "-ksp_max_it", "2"])
 
 
 def test_failure_linear_solver_reported(linear_failure):
@@ -346,13 +342,10 @@ def test_failure_linear_advice_names_direct_solver(linear_failure):
 @pytest.fixture(scope="module")
 def line_search_failure(build):
     """A line search that may not shorten the step (minimum step length 0.99)."""
-    out = os.path.join(build, "test_out", "failure_line_search")
-    command = [os.path.join(build, "fusiform"), "--model", "combi", "--case", "free",
-               "--refinement", "1", "--no-fbar", "--dt", "0.15", "--max-cutbacks", "0",
-               "--line-search", "bt", "--out", out, "--quiet", "--no-fields",
-               "-snes_linesearch_minlambda", "0.99"]
-    result = subprocess.run(command, capture_output=True, text=True)
-    return result.returncode, result.stderr.strip()
+    return stopped_run(build, "failure_line_search",
+                       ["--model", "combi", "--case", "free", "--refinement", "1", "--no-fbar",
+                        "--dt", "0.15", "--max-cutbacks", "0", "--line-search", "bt",
+                        "-snes_linesearch_minlambda", "0.99"])
 
 
 def test_failure_line_search_named_in_the_advice(line_search_failure):

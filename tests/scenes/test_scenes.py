@@ -38,7 +38,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 SCENES = os.path.join(ROOT, "demos", "scenes")
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                                 "support"))
-from checks import all_finite, finite_json  # noqa: E402
+from checks import all_finite, finite_json, read_json  # noqa: E402
 
 
 def run(build, args, ranks=1, timeout=None):
@@ -62,15 +62,6 @@ def read_series(path):
             return list(csv.DictReader(f))
     except OSError:
         return []
-
-
-def read_json(path):
-    """A JSON file's content (None if there is none)."""
-    try:
-        with open(path) as f:
-            return json.load(f)
-    except (OSError, ValueError):
-        return None
 
 
 def final(out):

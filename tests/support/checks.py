@@ -1,6 +1,16 @@
-"""What the Python tests share: the finiteness of what a run wrote (nlohmann
-writes NaN and inf as null)."""
+"""What the Python tests share: reading what a run wrote, and its finiteness
+(nlohmann writes NaN and inf as null)."""
+import json
 import math
+
+
+def read_json(path):
+    """A JSON file's content (None if there is none, or it is not JSON)."""
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
 
 
 def finite_json(value):
