@@ -8,17 +8,27 @@ namespace muscle
 bool use_fbar(std::optional<bool> fbar, const std::string& cell, int degree,
               bool anti_locking)
 {
-  const bool linear_hexahedron = (cell == "hex" or cell == "hexahedron") and degree == 1;
+  const bool hexahedron = cell == "hex" or cell == "hexahedron";
   if (!fbar)
-    return linear_hexahedron and !anti_locking;
-  if (*fbar and !linear_hexahedron)
+    return hexahedron and degree == 1 and !anti_locking;
+  if (*fbar)
+  {
+    check_fbar_request(degree, anti_locking);
+    if (!hexahedron)
+      throw InputError("the F-bar element is the locking-free Q1 hexahedron: on tetrahedra "
+                       "the centre value is the whole P1 field, found " + cell);
+  }
+  return *fbar;
+}
+
+void check_fbar_request(int degree, bool anti_locking)
+{
+  if (degree != 1)
     throw InputError("the F-bar element is the locking-free Q1 hexahedron: it needs degree 1 "
-                     "on hexahedra (Q2 does not lock; on tetrahedra the centre value is the "
-                     "whole P1 field), found degree " + std::to_string(degree) + " on " + cell);
-  if (*fbar and anti_locking)
+                     "(Q2 does not lock), found degree " + std::to_string(degree));
+  if (anti_locking)
     throw InputError("F-bar and a volumetric quadrature degree of its own are two anti-locking "
                      "elements; choose one");
-  return *fbar;
 }
 
 std::string locking_warning(const std::string& cell, int degree, bool fbar, bool anti_locking,

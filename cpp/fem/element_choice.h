@@ -15,6 +15,10 @@ namespace muscle
 bool use_fbar(std::optional<bool> fbar, const std::string& cell, int degree,
               bool anti_locking);
 
+/// The part of use_fbar's check that needs no mesh (a scene checks it when it
+/// is read): F-bar asked for with degree 2 or with the anti-locking element.
+void check_fbar_request(int degree, bool anti_locking);
+
 /// One line warning of the locking error of plain linear elements (Q1 without
 /// F-bar or anti-locking, P1) under a nearly incompressible law (kappa >= 100),
 /// with the error measured in BENCHMARKS.md; "" when it does not apply.

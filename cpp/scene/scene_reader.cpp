@@ -3,6 +3,7 @@
 #include "scene.h"
 
 #include "../common/errors.h"
+#include "../fem/element_choice.h"
 #include "../forms/form_registry.h"
 
 #include <algorithm>
@@ -777,12 +778,15 @@ Scene parse_scene(const std::string& text, const std::string& name,
     {
       scene.mesh.fbar = el["fbar"].flag(false);
       scene.mesh.fbar_where = el["fbar"].where();
-      if (*scene.mesh.fbar and scene.mesh.degree != 1)
-        el["fbar"].fail("the F-bar element is the locking-free Q1 hexahedron: it needs degree 1 "
-                        "(Q2 does not lock)");
-      if (*scene.mesh.fbar and scene.mesh.volumetric_quadrature_degree >= 0)
-        el["fbar"].fail("F-bar and a volumetric quadrature degree of its own are two "
-                        "anti-locking elements; choose one");
+      if (*scene.mesh.fbar)
+        try
+        {
+          check_fbar_request(scene.mesh.degree, scene.mesh.volumetric_quadrature_degree >= 0);
+        }
+        catch (const InputError& e)
+        {
+          el["fbar"].fail(e.what());
+        }
     }
   }
 
