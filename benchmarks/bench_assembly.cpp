@@ -295,8 +295,8 @@ int main(int argc, char** argv)
       coefficients["activation_scale"] = problems.front()->activation_scale();
     }
     std::map<std::string, std::shared_ptr<const fem::Constant<double>>> constants
-        = {{"mu", std::make_shared<fem::Constant<double>>(1.0)},
-           {"lmbda", std::make_shared<fem::Constant<double>>(100.0)}};
+        = {{"E", std::make_shared<fem::Constant<double>>(1.0)},
+           {"nu", std::make_shared<fem::Constant<double>>(0.45)}};
     auto nh_residual = std::make_shared<fem::Form<double>>(
         fem::create_form<double>(*nh.residual, {V}, coefficients, constants, {}));
     auto nh_jacobian = std::make_shared<fem::Form<double>>(

@@ -1,62 +1,61 @@
 #!/usr/bin/python3
-"""Compile the muscle forms with FFCx: one C file per variant plus a C++ registry.
+"""Compile the material laws with FFCx: one C file per variant, plus the C++ registry.
 
-    compile_forms.py --out DIR [--variant MODEL:CELL:DEGREE[:QDEG[:VQDEG|:fbar]] ...]
+    compile_forms.py --out DIR [--material FILE ...] [--law NAME ...] [--fibres]
+                     [--registry] [--cmake FILE] [--extra-variant K:CELL:DEGREE:QDEG[:VQDEG]]
 
-Without --variant it builds every model on hexahedra and tetrahedra of degree 1 and 2
-at the default quadrature degree, the anti-locking Q1 of BLE (volumetric part on one
-point, VQDEG 1), the F-bar Q1 hexahedron of every model, and one material-point variant
-per model.  CMake
-runs this whenever a file under forms/ changes (the form-regeneration workflow).
+A law is one file (forms/materials/*.py and the files of --material; see
+muscleforms/law.py; --material adds users' files).  Each law's kernel sets (the law, and its passive counterpart
+unless it names another law's) are compiled on hexahedra and tetrahedra of degree 1
+and 2 at the default quadrature degree, as the F-bar Q1 hexahedron, as the
+anti-locking Q1 if the law gives volumetric_stiff_part, and as one material-point
+variant.  CMake runs one --law call per law file, so a new or edited law compiles
+only its own kernels; --registry writes the C++ tables of laws and kernels
+(form_registry.cpp); --cmake writes the generated-file list of each law for CMake.
+Without --law, --fibres, --registry or --cmake: everything.
 """
 
 import argparse
+import math
 import pathlib
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from ffcx import compiler, formatting  # noqa: E402
-from ffcx.parameters import get_parameters  # noqa: E402
-
-from muscleforms import fbar, variants  # noqa: E402
-from muscleforms.activation import TAYLOR_ORDER  # noqa: E402
+from muscleforms import fbar, law as laws_module, loads, variants  # noqa: E402
 
 
-def default_variants():
+def kernel_variants(kernels, law, extra=()):
+    """(kernels, cell, degree, qdeg, vqdeg, fbar) of one kernel set."""
     out = []
-    for model in variants.MODELS:
-        for cell in variants.CELLS:
-            for degree in (1, 2):
-                qdeg = variants.DEFAULT_QUADRATURE[(cell, degree)]
-                out.append((model, cell, degree, qdeg, qdeg, False))
-                vqdeg = variants.REDUCED_VOLUMETRIC.get((cell, degree))
-                if vqdeg is not None and model in variants.ANTI_LOCKING_MODELS:
-                    out.append((model, cell, degree, qdeg, vqdeg, False))
-                if (cell, degree) in fbar.FBAR_ELEMENTS and model in fbar.FBAR_MODELS:
-                    out.append((model, cell, degree, qdeg, qdeg, True))
+    for cell in variants.CELLS:
+        for degree in (1, 2):
+            qdeg = variants.DEFAULT_QUADRATURE[(cell, degree)]
+            out.append((kernels, cell, degree, qdeg, qdeg, False))
+            vqdeg = variants.REDUCED_VOLUMETRIC.get((cell, degree))
+            if vqdeg is not None and law.volumetric_stiff_part is not None:
+                out.append((kernels, cell, degree, qdeg, vqdeg, False))
+            if (cell, degree) in fbar.FBAR_ELEMENTS:
+                out.append((kernels, cell, degree, qdeg, qdeg, True))
+    out += [v for v in extra if v[0] == kernels and v not in out]
     return out
 
 
-def parse_variant(text):
+def parse_variant(text, sets):
     parts = text.split(":")
-    if len(parts) not in (3, 4, 5):
-        raise SystemExit(f"--variant {text!r}: expected MODEL:CELL:DEGREE[:QDEG[:VQDEG|:fbar]]")
-    with_fbar = len(parts) == 5 and parts[4] == "fbar"
-    if with_fbar:
-        parts = parts[:4]
-    model, cell, degree = parts[0], parts[1], int(parts[2])
-    if model not in variants.MODELS or cell not in variants.CELLS or degree not in (1, 2):
-        raise SystemExit(f"--variant {text!r}: model in {variants.MODELS}, cell in "
+    if len(parts) not in (4, 5):
+        raise SystemExit(f"--extra-variant {text!r}: expected KERNELS:CELL:DEGREE:QDEG[:VQDEG]")
+    kernels, cell, degree, qdeg = parts[0], parts[1], int(parts[2]), int(parts[3])
+    if kernels not in sets or cell not in variants.CELLS or degree not in (1, 2):
+        raise SystemExit(f"--extra-variant {text!r}: kernels in {sorted(sets)}, cell in "
                          f"{tuple(variants.CELLS)}, degree 1 or 2")
-    qdeg = int(parts[3]) if len(parts) >= 4 else variants.DEFAULT_QUADRATURE[(cell, degree)]
     vqdeg = int(parts[4]) if len(parts) == 5 else qdeg
     if not 0 <= vqdeg <= qdeg:
-        raise SystemExit(f"--variant {text!r}: VQDEG {vqdeg} must be between 0 and QDEG {qdeg}")
-    if with_fbar and ((cell, degree) not in fbar.FBAR_ELEMENTS or model not in fbar.FBAR_MODELS):
-        raise SystemExit(f"--variant {text!r}: F-bar is for hex degree 1 and the models "
-                         f"{fbar.FBAR_MODELS}")
-    return model, cell, degree, qdeg, vqdeg, with_fbar
+        raise SystemExit(f"--extra-variant {text!r}: VQDEG {vqdeg} must be between 0 and QDEG {qdeg}")
+    if vqdeg != qdeg and sets[kernels][0].volumetric_stiff_part is None:
+        raise SystemExit(f"--extra-variant {text!r}: law {sets[kernels][0].name} gives no "
+                         f"volumetric_stiff_part")
+    return kernels, cell, degree, qdeg, vqdeg, False
 
 
 def write_if_changed(path, text):
@@ -67,92 +66,183 @@ def write_if_changed(path, text):
 
 
 def compile_objects(names, prefix, outdir, parameters):
+    from ffcx import compiler, formatting
     code_h, code_c = compiler.compile_ufl_objects(names.objects, names.object_names,
                                                   prefix=prefix, parameters=parameters)
-    tmp = outdir / "tmp"
-    tmp.mkdir(exist_ok=True)
+    tmp = outdir / "tmp" / prefix  # one folder per prefix: laws compile in parallel
+    tmp.mkdir(parents=True, exist_ok=True)
     formatting.write_code(code_h, code_c, prefix, str(tmp))
     for ext in ("h", "c"):
         write_if_changed(outdir / f"{prefix}.{ext}", (tmp / f"{prefix}.{ext}").read_text())
 
 
-def registry_source(fe_variants, models):
-    """C++ table that maps (model, cell, degree, quadrature degree) to the generated code."""
-    lines = ["// Generated by forms/compile_forms.py -- do not edit.",
-             '#include "form_registry.h"']
-    for v in fe_variants:
-        lines.append(f'#include "{variants.variant_name(*v)}.h"')
-    lines += ["", "namespace", "{"]
-    for v in fe_variants:
+LOAD_ELEMENTS = [(c, d) for c in variants.CELLS for d in (1, 2)]
+
+
+def load_prefixes():
+    return [f"loads_{c}{d}" for c, d in LOAD_ELEMENTS]
+
+
+def law_prefixes(law, sets, extra):
+    out = []
+    for kernels, (owner, _) in sets.items():
+        if owner is law:
+            out += [variants.variant_name(*v) for v in kernel_variants(kernels, law, extra)]
+            out.append(f"mp_{kernels}")
+    return out
+
+
+def compile_law(law, sets, extra, outdir, parameters):
+    for kernels, (owner, active) in sets.items():
+        if owner is not law:
+            continue
+        for v in kernel_variants(kernels, law, extra):
+            names = (fbar.build_fbar_variant(law, active, *v[1:4]) if v[5]
+                     else variants.build_fe_variant(law, active, *v[1:5]))
+            compile_objects(names, variants.variant_name(*v), outdir, parameters)
+        compile_objects(variants.build_material_point_variant(law, active), f"mp_{kernels}",
+                        outdir, parameters)
+
+
+def cpp_string(text):
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def cpp_number(x):
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return repr(float(x))
+
+
+def law_source(law):
+    a = law.activation
+    params = ",\n        ".join(
+        f"{{{cpp_string(p.name)}, {cpp_number(p.preset)}, {cpp_number(p.lower)}, "
+        f"{cpp_number(p.upper)}, {str(p.lower_open).lower()}, {str(p.upper_open).lower()}, "
+        f"{cpp_string(p.unit)}, {cpp_string(p.meaning)}}}" for p in law.parameters)
+    fit = ", ".join(cpp_string(n) for n in law.fit_parameters)
+    return (f"      {{{cpp_string(law.name)}, {cpp_string(law.description)}, "
+            f"{cpp_string(law.source)},\n       {{{params}}},\n       "
+            f"{cpp_string(a.drive)}, {cpp_string(a.time_function)}, {cpp_string(a.kernel)}, "
+            f"{a.taylor_order}, {str(a.stress_holds_omega).lower()}, {cpp_string(law.passive)}, "
+            f"{str(law.volumetric_stiff_part is not None).lower()}, {{{fit}}}}},")
+
+
+def registry_source(laws, sets, extra):
+    """C++ tables: the laws, and (kernels, cell, degree, quadrature) -> generated code."""
+    fe = [v for k, (law, _) in sets.items() for v in kernel_variants(k, law, extra)]
+    lines = ["// Generated by forms/compile_forms.py from the law files -- do not edit.",
+             '#include "form_registry.h"', "#include <limits>"]
+    lines += [f'#include "{variants.variant_name(*v)}.h"' for v in fe]
+    lines += [f'#include "mp_{k}.h"' for k in sets]
+    lines += [f'#include "fibre_{c}.h"' for c in variants.CELLS]
+    lines += [f'#include "{n}.h"' for n in load_prefixes()]
+    lines += ["", "namespace", "{", "constexpr double inf = std::numeric_limits<double>::infinity();"]
+    for v in fe:
         if v[5]:
             n = variants.variant_name(*v)
             kernels = ", ".join(f"form_{n}_fbar_{k}" for k in
                                 ("residual", "jacobian", "centre", "gradient", "hessian"))
             lines.append(f"const muscle::forms::FbarForms fbar_{n} = {{{kernels}, "
                          f"expression_{n}_fbar_centre_dilatation}};")
-    lines += ["} // namespace"]
-    for m in models:
-        lines.append(f'#include "mp_{m}.h"')
-    for c in variants.CELLS:
-        lines.append(f'#include "fibre_{c}.h"')
-    lines += ["", "namespace muscle::forms", "{", "",
+    lines += ["} // namespace", "", "namespace muscle::forms", "{", "",
+              "const std::vector<LawInfo>& laws()", "{",
+              "  static const std::vector<LawInfo> table = {"]
+    lines += [law_source(law) for law in laws.values()]
+    lines += ["  };", "  return table;", "}", "",
               "const std::vector<FeVariant>& fe_variants()", "{",
               "  static const std::vector<FeVariant> table = {"]
-    for (model, cell, degree, qdeg, vqdeg, with_fbar) in fe_variants:
-        n = variants.variant_name(model, cell, degree, qdeg, vqdeg, with_fbar)
-        stretch = f"expression_{n}_fibre_stretch" if model in TAYLOR_ORDER else "nullptr"
+    for (kernels, cell, degree, qdeg, vqdeg, with_fbar) in fe:
+        law, active = sets[kernels]
+        n = variants.variant_name(kernels, cell, degree, qdeg, vqdeg, with_fbar)
+        stretch = (f"expression_{n}_fibre_stretch"
+                   if active and law.activation.drive == "omega_kernel" else "nullptr")
         split = (f"form_{n}_residual_volumetric, form_{n}_jacobian_volumetric" if vqdeg != qdeg
                  else "nullptr, nullptr")
-        lines.append(f'      {{"{model}", "{variants.CELLS[cell]}", {degree}, {qdeg}, {vqdeg}, '
+        lines.append(f'      {{"{kernels}", "{variants.CELLS[cell]}", {degree}, {qdeg}, {vqdeg}, '
                      f'form_{n}_residual, form_{n}_jacobian, {split}, form_{n}_volume, '
                      f'functionspace_form_{n}_residual, {stretch}, expression_{n}_post, '
                      f'{"&fbar_" + n if with_fbar else "nullptr"}}},')
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<MaterialPointVariant>& material_point_variants()", "{",
               "  static const std::vector<MaterialPointVariant> table = {"]
-    for m in models:
-        lines.append(f'      {{"{m}", expression_mp_{m}_energy, expression_mp_{m}_stress, '
-                     f'expression_mp_{m}_tangent, expression_mp_{m}_fibre_stretch}},')
+    for k in sets:
+        lines.append(f'      {{"{k}", expression_mp_{k}_energy, expression_mp_{k}_stress, '
+                     f'expression_mp_{k}_tangent, expression_mp_{k}_fibre_stretch}},')
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<FibreVariant>& fibre_variants()", "{",
               "  static const std::vector<FibreVariant> table = {"]
     for c, name in variants.CELLS.items():
         lines.append(f'      {{"{name}", form_fibre_{c}_laplace, form_fibre_{c}_rhs, '
                      f'functionspace_form_fibre_{c}_laplace, expression_fibre_{c}_gradient}},')
+    lines += ["  };", "  return table;", "}", "",
+              "const std::vector<LoadVariant>& load_variants()", "{",
+              "  static const std::vector<LoadVariant> table = {"]
+    for (c, degree), n in zip(LOAD_ELEMENTS, load_prefixes()):
+        forms = ", ".join(f"form_{n}_{k}" for k in ("pressure_residual", "pressure_jacobian",
+                                                    "traction_residual", "gravity_residual", "area"))
+        lines.append(f'      {{"{variants.CELLS[c]}", {degree}, {forms}, '
+                     f'functionspace_form_{n}_pressure_residual}},')
     lines += ["  };", "  return table;", "}", "", "} // namespace muscle::forms", ""]
     return "\n".join(lines)
 
 
+def cmake_source(laws, sets, extra):
+    """set(MUSCLE_LAWS ...), and per law its file and generated C files."""
+    lines = ["# Generated by forms/compile_forms.py --cmake -- do not edit.",
+             f"set(MUSCLE_LAWS {' '.join(laws)})"]
+    for law in laws.values():
+        files = " ".join(f"{p}.c" for p in law_prefixes(law, sets, extra))
+        lines.append(f'set(MUSCLE_LAW_{law.name}_SOURCE "{law.source}")')
+        lines.append(f"set(MUSCLE_LAW_{law.name}_FILES {files})")
+    lines.append(f"set(MUSCLE_FIBRE_FILES {' '.join(f'fibre_{c}.c' for c in variants.CELLS)})")
+    lines.append(f"set(MUSCLE_LOAD_FILES {' '.join(f'{n}.c' for n in load_prefixes())})")
+    return "\n".join(lines) + "\n"
+
+
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", required=True, help="output directory for the generated C code")
-    parser.add_argument("--variant", action="append", default=[],
-                        help="MODEL:CELL:DEGREE[:QDEG[:VQDEG]], repeatable (default: the standard set)")
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", required=True, help="output directory for the generated code")
+    parser.add_argument("--material", action="append", default=[],
+                        help="a user's law file outside the tree (repeatable)")
+    parser.add_argument("--law", action="append", default=[], help="compile this law's kernels")
+    parser.add_argument("--fibres", action="store_true", help="compile the fibre Laplace problem")
+    parser.add_argument("--loads", action="store_true", help="compile the external loads")
+    parser.add_argument("--registry", action="store_true", help="write form_registry.cpp")
+    parser.add_argument("--cmake", help="write the generated-file lists for CMake to this file")
     parser.add_argument("--extra-variant", action="append", default=[],
-                        help="MODEL:CELL:DEGREE:QDEG[:VQDEG] added to the standard set")
-    parser.add_argument("--list", action="store_true", help="print the generated file names and exit")
+                        help="KERNELS:CELL:DEGREE:QDEG[:VQDEG] added to the standard set")
     args = parser.parse_args()
 
-    fe = [parse_variant(v) for v in args.variant] or default_variants()
-    fe += [parse_variant(v) for v in args.extra_variant if parse_variant(v) not in fe]
-    mp_models = [m for m in variants.MODELS]
+    try:
+        laws = laws_module.load_laws(args.material)
+    except laws_module.LawError as e:
+        raise SystemExit(f"error: {e}")
+    sets = laws_module.kernel_sets(laws)
+    extra = [parse_variant(v, sets) for v in args.extra_variant]
     outdir = pathlib.Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
-    prefixes = ([variants.variant_name(*v) for v in fe] + [f"mp_{m}" for m in mp_models]
-                + [f"fibre_{c}" for c in variants.CELLS])
-    if args.list:
-        print(";".join(f"{p}.c" for p in prefixes))
-        return
+    everything = not (args.law or args.fibres or args.loads or args.registry or args.cmake)
 
-    parameters = get_parameters({"verbosity": 40})
-    for v in fe:
-        names = (fbar.build_fbar_variant(*v[:4]) if v[5] else variants.build_fe_variant(*v[:5]))
-        compile_objects(names, variants.variant_name(*v), outdir, parameters)
-    for m in mp_models:
-        compile_objects(variants.build_material_point_variant(m), f"mp_{m}", outdir, parameters)
-    for c in variants.CELLS:
-        compile_objects(variants.build_fibre_variant(c), f"fibre_{c}", outdir, parameters)
-    write_if_changed(outdir / "form_registry.cpp", registry_source(fe, mp_models))
+    if args.cmake:
+        write_if_changed(args.cmake, cmake_source(laws, sets, extra))
+    unknown = [n for n in args.law if n not in laws]
+    if unknown:
+        raise SystemExit(f"error: --law {unknown[0]}: laws are {', '.join(laws)}")
+    if args.law or args.fibres or args.loads or everything:
+        from ffcx.parameters import get_parameters
+        parameters = get_parameters({"verbosity": 40})
+        for name in (laws if everything else args.law):
+            compile_law(laws[name], sets, extra, outdir, parameters)
+        if args.fibres or everything:
+            for c in variants.CELLS:
+                compile_objects(variants.build_fibre_variant(c), f"fibre_{c}", outdir, parameters)
+        if args.loads or everything:
+            for (c, d), n in zip(LOAD_ELEMENTS, load_prefixes()):
+                compile_objects(loads.build_load_variant(c, d), n, outdir, parameters)
+    if args.registry or everything:
+        write_if_changed(outdir / "form_registry.cpp", registry_source(laws, sets, extra))
 
 
 if __name__ == "__main__":

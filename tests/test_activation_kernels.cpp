@@ -17,7 +17,7 @@ namespace
 {
 EhretParameters fitted()
 {
-  return ehret_parameters(ParameterSet(Model::wkm));
+  return ehret_parameters(ParameterSet(Model("wkm")));
 }
 
 // The paper's eq. wa verbatim (with ERRATA's I_p'), through Boost's W_0.

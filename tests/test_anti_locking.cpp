@@ -33,7 +33,7 @@ Body make(int volumetric_degree)
       MPI_COMM_WORLD, {{{0, 0, 0}, {1, 1.2, 1.5}}}, {2, 2, 3}, mesh::CellType::hexahedron,
       mesh::GhostMode::shared_facet));
   s.problem = std::make_unique<MuscleProblem>(
-      s.mesh, ParameterSet(Model::ble), Discretisation{1, 2, volumetric_degree});
+      s.mesh, ParameterSet(Model("ble")), Discretisation{1, 2, volumetric_degree});
   s.problem->set_fibre({0.3, 0.1, 0.95});
   s.problem->set_time_factor(0.7);
   // a smooth non-homogeneous displacement: every quadrature point sees another F

@@ -7,9 +7,11 @@
 // overflows double precision (which the solver's residual check turns into a
 // domain error and a cut time step).  Where finite, stress and tangent agree
 // with finite differences on a subsample.  Then each known trouble spot by name.
+#include <loadcases/load_case.h>
 #include <material/activation_kernels.h>
 #include <material/material_point.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <gtest/gtest.h>
@@ -92,7 +94,7 @@ double jacobian(const MaterialPoint& x)
 /// penalty det(C)^-kappa (WKM, GIANT, COMBI), beyond the double range (e^709).
 bool overflow_expected(Model model, const Extreme& e)
 {
-  if (model == Model::ble)
+  if (model == Model("ble"))
     return false;
   return -2 * e.kappa * std::log(jacobian(e.x)) + 2 * std::log(2 * e.kappa + 1) > 700;
 }
@@ -103,11 +105,11 @@ double finite_difference_error(const MaterialPointModel& m, const MaterialPoint&
 {
   // the penalty varies on the scale 1/(2 kappa): the step follows it, so that the
   // truncation error (2 kappa h)^4 stays small
-  const double kappa = m.parameters().model() == Model::ble ? 0 : m.parameters()["kappa"];
+  const double kappa = m.parameters().model() == Model("ble") ? 0 : m.parameters()["kappa"];
   const double h = std::min(1e-6, 1e-3 / (2 * kappa + 1));
   OmegaTaylor frozen = m.activation(x);
   frozen.d1 = frozen.d2 = 0;
-  const bool wkm = m.parameters().model() == Model::wkm;
+  const bool wkm = m.parameters().model() == Model("wkm");
   const Matrix3 P = m.stress(x);
   const Tangent3 A = m.tangent(x);
   double P_scale = 1e-8, A_scale = 1e-8;
@@ -146,7 +148,9 @@ TEST_P(Sweep, FiniteOrReportedAndConsistent)
 {
   const Model model = GetParam();
   const ParameterSet preset(model);
-  std::mt19937 rng(2026 + static_cast<int>(model));
+  const auto& paper = paper_models();
+  std::mt19937 rng(2026 + static_cast<int>(std::find(paper.begin(), paper.end(), model)
+                                           - paper.begin()));
   const int count = 100000, every = 100;
   int finite_count = 0, reported = 0, overflow = 0, silent = 0, checked = 0, fd_fail = 0;
   double worst_fd = 0;
@@ -158,7 +162,7 @@ TEST_P(Sweep, FiniteOrReportedAndConsistent)
       e = random_extreme(rng, preset);
     ParameterSet p(model);
     p.set("kappa", e.kappa);
-    if (model != Model::ble)
+    if (model != Model("ble"))
       p.set("omega_0", e.omega_0);
     MaterialPointModel m(p);
     m.set_time_factor(e.time_factor);
@@ -204,7 +208,7 @@ TEST_P(Sweep, FiniteOrReportedAndConsistent)
   EXPECT_GT(checked, 500);
 }
 
-INSTANTIATE_TEST_SUITE_P(AllModels, Sweep, ::testing::ValuesIn(all_models()),
+INSTANTIATE_TEST_SUITE_P(AllModels, Sweep, ::testing::ValuesIn(paper_models()),
                          [](const auto& info) { return to_string(info.param); });
 
 // ------------------------------------------------------------ trouble spots --
@@ -214,7 +218,7 @@ TEST(TroubleSpot, BleAcoshInvariantAtThetaBelowOneFromRoundOff)
   // Pure fibre stretch: theta = 1 exactly in exact arithmetic; round-off in
   // I1 I4 - I5 gives theta = 1 - O(eps), where acosh is NaN.  The series
   // evaluation must give finite values with zero transverse-shear stress.
-  MaterialPointModel m{ParameterSet(Model::ble)};
+  MaterialPointModel m{ParameterSet(Model("ble"))};
   for (double l : {0.3, 0.7, 0.9999999, 1.0, 1.0000001, 1.3, 3.0})
     for (double tiny : {0.0, 1e-17, -1e-17, 1e-12})
     {
@@ -231,7 +235,7 @@ TEST(TroubleSpot, GiantOneMinusOmegaApproachesZero)
 {
   // Huge activation levels drive omega_a -> 1 (the elastic stretch m = l/(1 - omega_a)
   // grows); the kernel either converges to a root with 1 - omega_a > 0 or reports.
-  const EhretParameters p = ehret_parameters(ParameterSet(Model::giant));
+  const EhretParameters p = ehret_parameters(ParameterSet(Model("giant")));
   for (double level : {1e2, 1e4, 1e6, 1e8, 1e12})
     for (double l : {0.6, 1.0, 2.0})
     {
@@ -250,7 +254,7 @@ TEST(TroubleSpot, WkmLambertArgumentNearBranchPoint)
   // Fibre stretch just above lambda_min: P_act -> 0+, the W_0 argument
   // approaches the branch region for short fibres.  omega_a must be finite and
   // tend to 0 continuously, with a finite derivative.
-  const ParameterSet ps(Model::wkm);
+  const ParameterSet ps(Model("wkm"));
   const EhretParameters p = ehret_parameters(ps);
   const double lmin = ps["lambda_min"];
   double previous = 1;
@@ -269,7 +273,7 @@ TEST(TroubleSpot, WkmExponentialOverflowAvoided)
 {
   // Long fibres, stiff exponent: e^y in the paper's chi* overflows; the kernel's
   // formulation does not.
-  ParameterSet ps(Model::wkm);
+  ParameterSet ps(Model("wkm"));
   ps.set("alpha", 50);
   const EhretParameters p = ehret_parameters(ps);
   for (double l : {2.0, 3.0, 5.0})
@@ -287,7 +291,7 @@ TEST(TroubleSpot, ForceStretchKinkAtLambdaMin)
   // omega_a >= 0 stretches the elastic part to m > 1 as soon as any active
   // energy exists (ERRATA.md) -- so the stress has a finite jump whose one-sided
   // limits exist.  We measure and document it instead of hiding it.
-  for (Model model : {Model::wkm, Model::giant, Model::combi})
+  for (Model model : {Model("wkm"), Model("giant"), Model("combi")})
   {
     MaterialPointModel m{ParameterSet(model)};
     const double lmin = m.parameters()["lambda_min"];
@@ -299,11 +303,11 @@ TEST(TroubleSpot, ForceStretchKinkAtLambdaMin)
       EXPECT_TRUE(finite(above, m.tangent(fibre_stretch_state(lmin + d))));
       EXPECT_TRUE(finite(below, m.tangent(fibre_stretch_state(lmin - d))));
       jumps.push_back(above[8] - below[8]);
-      if (model != Model::giant)
+      if (model != Model("giant"))
         EXPECT_NEAR(below[8], above[8], 1e3 * d * (1 + std::abs(above[8])))
             << to_string(model) << " d = " << d;
     }
-    if (model == Model::giant)
+    if (model == Model("giant"))
     {
       EXPECT_NEAR(jumps[0], jumps[1], 1e-3 * std::abs(jumps[1]));
       std::printf("GIANT: P33 jumps by %.2f kPa across lambda_min = %.4f (activation-onset "
@@ -318,7 +322,7 @@ TEST(TroubleSpot, ExponentialOverflowIsNeverSilent)
   // non-finite ones -- which the solver's residual check reports -- never a
   // finite-looking garbage value: the stress must grow monotonically with the
   // stretch while finite.
-  for (Model model : {Model::wkm, Model::giant, Model::combi})
+  for (Model model : {Model("wkm"), Model("giant"), Model("combi")})
   {
     ParameterSet p(model);
     p.set("alpha", 200);

@@ -189,9 +189,9 @@ TEST_P(FbarNewton, ConvergesQuadraticallyToTheDisplacementNewtonsState)
 
 INSTANTIATE_TEST_SUITE_P(
     Models, FbarNewton,
-    ::testing::Values(Case{Model::combi, false, "cp"}, Case{Model::combi, true, "cp"},
-                      Case{Model::combi, false, "bt"}, Case{Model::giant, true, "cp"},
-                      Case{Model::wkm, false, "cp"}, Case{Model::ble, true, "bt"}),
+    ::testing::Values(Case{Model("combi"), false, "cp"}, Case{Model("combi"), true, "cp"},
+                      Case{Model("combi"), false, "bt"}, Case{Model("giant"), true, "cp"},
+                      Case{Model("wkm"), false, "cp"}, Case{Model("ble"), true, "bt"}),
     [](const auto& info)
     {
       return to_string(info.param.model) + (info.param.constrained ? "_free_" : "_pulled_")
@@ -208,7 +208,7 @@ TEST(FbarNewtonRecovery, SolvesAgainAfterAFailedLinearSolve)
 {
   for (bool constrained : {false, true})
   {
-    Block block = make_block(Model::combi, constrained);
+    Block block = make_block(Model("combi"), constrained);
     MuscleProblem& problem = *block.problem;
     NonlinearSolver solver(problem, block.bcs, block.constraint, multigrid_options());
     problem.set_time_factor(1.0);
@@ -233,7 +233,7 @@ TEST(FbarNewtonRecovery, SolvesAgainAfterAFailedLinearSolve)
     EXPECT_TRUE(report.converged) << report.reason << (constrained ? " (free)" : " (pulled)");
     EXPECT_TRUE(report.linear_failure.empty()) << report.linear_failure;
     // the same state as the direct solver's
-    const Outcome lu = solve(Model::combi, true, "cp", constrained, 1);
+    const Outcome lu = solve(Model("combi"), true, "cp", constrained, 1);
     const std::vector<double> u(problem.u()->x()->array().begin(),
                                 problem.u()->x()->array().end());
     EXPECT_LT(max_abs_diff(u, lu.u), 1e-6 * max_abs(lu.u));
@@ -254,7 +254,7 @@ TEST(FbarNewtonRecovery, SolvesAgainAfterAFailedLinearSolve)
 TEST(FbarNewtonMultigrid, FreeBlockKeepsTheRigidBodyModes)
 {
   const double kappa = 10;
-  Block block = make_block(Model::combi, true, kappa);
+  Block block = make_block(Model("combi"), true, kappa);
   MuscleProblem& problem = *block.problem;
   NonlinearSolver solver(problem, block.bcs, block.constraint, multigrid_options());
   problem.set_time_factor(1.0);
@@ -300,7 +300,7 @@ TEST(FbarNewtonMultigrid, FreeBlockKeepsTheRigidBodyModes)
   VecDestroy(&e);
   VecDestroy(&rest);
 
-  const Outcome lu = solve(Model::combi, true, "cp", true, 1, kappa);
+  const Outcome lu = solve(Model("combi"), true, "cp", true, 1, kappa);
   ASSERT_TRUE(lu.report.converged) << lu.report.reason;
   const std::vector<double> u(problem.u()->x()->array().begin(),
                               problem.u()->x()->array().end());

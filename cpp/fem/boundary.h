@@ -24,6 +24,13 @@ prescribe_component(std::shared_ptr<dolfinx::fem::FunctionSpace> V,
                     const std::vector<std::int32_t>& facets, int component,
                     std::shared_ptr<dolfinx::fem::Constant<double>> value);
 
+/// All three components fixed to zero at the node nearest `x` (of the
+/// displacement's nodes; every rank that holds the node fixes it).  `node`
+/// receives its coordinates.  Collective.
+std::shared_ptr<const dolfinx::fem::DirichletBC<double>>
+fix_nearest_node(std::shared_ptr<dolfinx::fem::FunctionSpace> V, const std::array<double, 3>& x,
+                 std::array<double, 3>& node);
+
 /// Unrolled local indices of one component's dofs on the facets.
 std::vector<std::int32_t> component_dofs(const dolfinx::fem::FunctionSpace& V,
                                          const std::vector<std::int32_t>& facets,

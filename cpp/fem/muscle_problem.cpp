@@ -19,11 +19,6 @@ namespace muscle
 {
 namespace
 {
-std::string passive_kernels(Model model)
-{
-  return model == Model::ble ? "ble_passive" : "ehret_passive";
-}
-
 std::int32_t num_local_cells(const mesh::Mesh& mesh, bool with_ghosts)
 {
   auto map = mesh.topology().index_map(mesh.topology().dim());
@@ -112,8 +107,7 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
                              std::optional<CellRegion> region,
                              std::shared_ptr<fem::Function<double>> u)
     : _mesh(mesh), _parameters(parameters), _passive(passive),
-      _kernels(passive ? passive_kernels(parameters.model())
-                       : to_string(parameters.model())),
+      _kernels(passive ? parameters.model().law().passive : parameters.model().name()),
       _region(region)
 {
   const std::string cell = mesh::to_string(mesh->topology().cell_type());
@@ -331,7 +325,7 @@ KernelStatus MuscleProblem::update_activation()
   xt::xtensor<double, 2> stretch({cells.size(), nq});
   _stretch_expression->eval(std::span<const std::int32_t>(cells), stretch);
 
-  const Model model = _parameters.model();
+  const Model& model = _parameters.model();
   const EhretParameters p = ehret_parameters(_parameters);
   const auto& dofmap = *_taylor.begin()->second->function_space()->dofmap();
   const auto& scale_dofmap = *_scale->function_space()->dofmap();

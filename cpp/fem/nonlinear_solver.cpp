@@ -3,7 +3,7 @@
 #include "../common/errors.h"
 
 #include "fbar_unknowns.h"
-#include "uniform_constraint.h"
+#include "constraint.h"
 
 #include <algorithm>
 #include <cmath>
@@ -20,11 +20,11 @@ namespace muscle
 namespace
 {
 /// Rigid-body modes of a 3-D displacement space, for GAMG: on V's unknowns, or,
-/// under the uniform-axial constraint, on the reduced unknowns x with T x closest
-/// to each mode (the constrained set takes the mode's mean there).  Without them
+/// under a constraint, restricted to the reduced unknowns (the uniform-axial
+/// set takes the mode's mean; a tie keeps the master's values).  Without them
 /// GAMG coarsens the free muscle's system as a scalar problem (BENCHMARKS.md).
 MatNullSpace rigid_body_modes(const fem::FunctionSpace& V,
-                              const UniformDisplacementConstraint* constraint)
+                              const DisplacementConstraint* constraint)
 {
   auto map = V.dofmap()->index_map;
   const int bs = V.dofmap()->index_map_bs();
@@ -47,34 +47,24 @@ MatNullSpace rigid_body_modes(const fem::FunctionSpace& V,
   // PETSc-owned copies: the null space outlives `basis` (a wrapped array would
   // dangle, and GAMG would coarsen with whatever reuses that memory)
   std::vector<Vec> vecs;
-  Vec weight = nullptr, ones = nullptr;
-  if (constraint)
-  {
-    // (T^T T)^-1 T^T: T^T T is diagonal, 1 or the size of the constrained set
-    weight = constraint->create_reduced_vector();
-    MatCreateVecs(constraint->T(), nullptr, &ones);
-    VecSet(ones, 1.0);
-    MatMultTranspose(constraint->T(), ones, weight);
-  }
   for (auto& b : basis)
   {
-    Vec wrap = la::petsc::create_vector_wrap(b), copy;
+    Vec copy;
     if (constraint)
     {
+      b.scatter_fwd();
       copy = constraint->create_reduced_vector();
-      MatMultTranspose(constraint->T(), wrap, copy);
-      VecPointwiseDivide(copy, copy, weight);
+      constraint->restrict_to(b, copy);
     }
     else
     {
+      Vec wrap = la::petsc::create_vector_wrap(b);
       VecDuplicate(wrap, &copy);
       VecCopy(wrap, copy);
+      VecDestroy(&wrap);
     }
-    VecDestroy(&wrap);
     vecs.push_back(copy);
   }
-  VecDestroy(&weight);
-  VecDestroy(&ones);
   // PETSc asks for an orthonormal basis: Gram-Schmidt, twice for round-off
   for (std::size_t i = 0; i < vecs.size(); ++i)
     for (int pass = 0; pass < 2; ++pass)
@@ -136,7 +126,7 @@ void NewtonOptions::validate() const
 NonlinearSolver::NonlinearSolver(
     MuscleProblem& problem,
     std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs,
-    std::shared_ptr<const UniformDisplacementConstraint> constraint,
+    std::shared_ptr<const DisplacementConstraint> constraint,
     NewtonOptions options)
     : NonlinearSolver(std::vector<MuscleProblem*>{&problem}, std::move(bcs),
                       std::move(constraint), std::move(options))
@@ -146,7 +136,7 @@ NonlinearSolver::NonlinearSolver(
 NonlinearSolver::NonlinearSolver(
     std::vector<MuscleProblem*> parts,
     std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs,
-    std::shared_ptr<const UniformDisplacementConstraint> constraint,
+    std::shared_ptr<const DisplacementConstraint> constraint,
     NewtonOptions options)
     : _parts(std::move(parts)), _problem(*_parts.at(0)), _bcs(std::move(bcs)),
       _constraint(std::move(constraint)), _options(std::move(options)),
@@ -206,7 +196,7 @@ NonlinearSolver::NonlinearSolver(
     // P^T A P needs an assembled A for its symbolic phase
     update_activation();
     assemble_full_jacobian();
-    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
+    reduce(nullptr, true);
     J = _A_red;
   }
   SNESSetFunction(_snes, F, residual_callback, this);
@@ -285,6 +275,8 @@ NonlinearSolver::~NonlinearSolver()
   if (_u_petsc)
     VecDestroy(&_u_petsc);
   VecDestroy(&_b_petsc);
+  if (_term_F)
+    VecDestroy(&_term_F);
   VecDestroy(&_F_full);
 }
 
@@ -312,12 +304,73 @@ void NonlinearSolver::set_state(Vec x)
   _last_kernel = update_activation();
 }
 
+void NonlinearSolver::add_forms(std::vector<std::shared_ptr<const fem::Form<double>>> residuals,
+                                std::vector<std::shared_ptr<const fem::Form<double>>> jacobians)
+{
+  _extra_residuals.insert(_extra_residuals.end(), residuals.begin(), residuals.end());
+  _extra_jacobians.insert(_extra_jacobians.end(), jacobians.begin(), jacobians.end());
+}
+
+void NonlinearSolver::add_term(std::shared_ptr<NonlinearTerm> term)
+{
+  if (!_term_F)
+  {
+    VecDuplicate(_b_petsc, &_term_F);
+    VecSetOption(_term_F, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE); // fixed dofs
+    MatSetOption(_A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+    if (_A_red)
+      MatSetOption(_A_red, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+  }
+  _terms.push_back(std::move(term));
+}
+
+void NonlinearSolver::add_term_residuals(std::span<double> b) const
+{
+  if (_terms.empty())
+    return;
+  VecZeroEntries(_term_F);
+  for (const auto& t : _terms)
+    t->add_residual(_term_F);
+  VecAssemblyBegin(_term_F);
+  VecAssemblyEnd(_term_F);
+  const PetscScalar* f;
+  PetscInt n;
+  VecGetLocalSize(_term_F, &n);
+  VecGetArrayRead(_term_F, &f);
+  for (PetscInt i = 0; i < n; ++i)
+    b[i] += f[i];
+  VecRestoreArrayRead(_term_F, &f);
+}
+
+void NonlinearSolver::reduce(Mat J, bool first)
+{
+  PetscObjectState state;
+  MatGetNonzeroState(_A, &state);
+  if (first)
+    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
+  else if (state == _reduced_state)
+    MatPtAP(_A, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
+  else
+  {
+    // A gained nonzeros: a new product, copied into J (which the KSP holds)
+    Mat C;
+    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &C);
+    MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+    MatCopy(C, J, DIFFERENT_NONZERO_PATTERN);
+    MatDestroy(&C);
+  }
+  _reduced_state = state;
+}
+
 void NonlinearSolver::assemble_nodal_forces(la::Vector<double>& b) const
 {
   std::fill(b.mutable_array().begin(), b.mutable_array().end(), 0.0);
   for (MuscleProblem* part : _parts)
     fem::assemble_vector<double>(b.mutable_array(), *part->residual());
+  for (const auto& r : _extra_residuals)
+    fem::assemble_vector<double>(b.mutable_array(), *r);
   b.scatter_rev(std::plus<double>());
+  add_term_residuals(b.mutable_array());
   b.scatter_fwd();
 }
 
@@ -387,7 +440,12 @@ PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void*
     fem::assemble_vector<double>(b, *part->residual());
     fem::apply_lifting<double>(b, {part->jacobian()}, {self->_bcs}, {u}, -1.0);
   }
+  for (const auto& r : self->_extra_residuals)
+    fem::assemble_vector<double>(b, *r);
+  for (const auto& J : self->_extra_jacobians)
+    fem::apply_lifting<double>(b, {J}, {self->_bcs}, {u}, -1.0);
   self->_b.scatter_rev(std::plus<double>());
+  self->add_term_residuals(b);
   fem::set_bc<double>(b, self->_bcs, u, -1.0);
 
   if (self->_constraint)
@@ -412,6 +470,10 @@ void NonlinearSolver::assemble_full_jacobian()
   for (MuscleProblem* part : _parts)
     fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES), *part->jacobian(),
                          _bcs);
+  for (const auto& J : _extra_jacobians)
+    fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A, ADD_VALUES), *J, _bcs);
+  for (const auto& t : _terms)
+    t->add_jacobian(A);
   MatAssemblyBegin(A, MAT_FLUSH_ASSEMBLY);
   MatAssemblyEnd(A, MAT_FLUSH_ASSEMBLY);
   fem::set_diagonal<double>(la::petsc::Matrix::set_fn(A, INSERT_VALUES),
@@ -446,7 +508,7 @@ PetscErrorCode NonlinearSolver::jacobian_callback(SNES snes, Vec x, Mat J, Mat, 
     return 0;
   }
   if (self->_constraint)
-    MatPtAP(self->_A, self->_constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
+    self->reduce(J, false);
   return 0;
 }
 
@@ -528,6 +590,7 @@ NewtonReport NonlinearSolver::solve()
     for (std::size_t i = 0; i < _cell_unknowns.size(); ++i)
       _cell_unknowns[i]->get(b.cells[i]);
     VecRestoreArray(_x_ext, &a);
+    first_full_step();
     error = SNESSolve(_snes, nullptr, _x_ext);
     set_extended_state(_x_ext);
   }
@@ -558,10 +621,14 @@ NewtonReport NonlinearSolver::solve()
     report.linear_failure = describe_linear_failure(linear_solver(), _linear_error);
   if (!report.linear_failure.empty())
     report.reason += " (" + report.linear_failure + ")";
+  if (!report.converged)
+    for (const auto& t : _terms)
+      if (const std::string d = t->diagnosis(); !d.empty())
+        report.reason += "; " + d;
   PetscInt its, lits;
   SNESGetIterationNumber(_snes, &its);
   SNESGetLinearSolveIterations(_snes, &lits);
-  report.iterations = its;
+  report.iterations = its + _full_steps;
   report.linear_iterations = _cell_unknowns.empty() ? lits : _inner_iterations - inner_before;
   PetscReal* history;
   PetscInt n;
@@ -575,6 +642,52 @@ NewtonReport NonlinearSolver::solve()
 // ---------------------------------------------------------------------------
 // Three-field F-bar: the SNES vector is [u part | cells of part 0 | ...]
 // ---------------------------------------------------------------------------
+
+void NonlinearSolver::first_full_step()
+{
+  // The three-field system keeps its Dirichlet columns (no lifting), so a
+  // boundary value that moved stands in the residual as rows u - g, which are
+  // no gradient of the energy: the critical-point line search then stalls (a
+  // stiff block pulled at its top: 45 Newton iterations, no convergence).  One
+  // full Newton step puts g in u and carries the interior along; if that step
+  // leaves the admissible states, the solve starts from the old state as before.
+  _full_steps = 0;
+  auto u = _problem.u()->x();
+  la::Vector<double> g(*u);
+  std::span<double> ga = g.mutable_array();
+  for (const auto& bc : _bcs)
+    bc->set(ga);
+  double moved = 0;
+  const std::int32_t owned = u->map()->size_local() * u->bs();
+  for (std::int32_t i = 0; i < owned; ++i)
+    moved = std::max(moved, std::abs(ga[i] - u->array()[i]));
+  MPI_Allreduce(MPI_IN_PLACE, &moved, 1, MPI_DOUBLE, MPI_MAX, _problem.mesh()->comm());
+  if (!(moved > 0) or _options.line_search == "basic")
+    return;
+  Vec start;
+  VecDuplicate(_x_ext, &start);
+  VecCopy(_x_ext, start);
+  SNESLineSearch ls;
+  SNESGetLineSearch(_snes, &ls);
+  SNESLineSearchType type;
+  SNESLineSearchGetType(ls, &type);
+  const std::string previous = type;
+  SNESLineSearchSetType(ls, SNESLINESEARCHBASIC);
+  SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0, 1, 10000);
+  const PetscErrorCode error = SNESSolve(_snes, nullptr, _x_ext);
+  SNESConvergedReason reason;
+  SNESGetConvergedReason(_snes, &reason);
+  SNESLineSearchSetType(ls, previous.c_str());
+  SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0, _options.max_iterations, 10000);
+  if (error or reason == SNES_DIVERGED_FUNCTION_DOMAIN or _non_finite)
+  {
+    VecCopy(start, _x_ext);
+    _non_finite = false;
+  }
+  else
+    _full_steps = 1;
+  VecDestroy(&start);
+}
 
 void NonlinearSolver::create_cell_unknowns()
 {
@@ -688,9 +801,12 @@ void NonlinearSolver::extended_residual(Vec F_ext)
   MPI_Allreduce(MPI_IN_PLACE, &violation, 1, MPI_DOUBLE, MPI_MAX, _problem.mesh()->comm());
   _constraint_violation = std::isinf(violation) ? std::numeric_limits<double>::quiet_NaN()
                                                 : violation;
+  for (const auto& r : _extra_residuals)
+    fem::assemble_vector<double>(b, *r);
   // no lifting: the Newton matrix keeps the Dirichlet columns (FbarCellUnknowns)
   std::span<const double> u = _problem.u()->x()->array();
   _b.scatter_rev(std::plus<double>());
+  add_term_residuals(b);
   fem::set_bc<double>(b, _bcs, u, -1.0);
   if (_constraint)
   {
@@ -710,6 +826,10 @@ void NonlinearSolver::assemble_three_field_jacobian()
   MatZeroEntries(_A);
   for (auto& cells : _cell_unknowns)
     cells->jacobian(_A);
+  for (const auto& J : _extra_jacobians)
+    fem::assemble_matrix(la::petsc::Matrix::set_block_fn(_A, ADD_VALUES), *J, _bcs);
+  for (const auto& t : _terms)
+    t->add_jacobian(_A);
   MatAssemblyBegin(_A, MAT_FLUSH_ASSEMBLY);
   MatAssemblyEnd(_A, MAT_FLUSH_ASSEMBLY);
   fem::set_diagonal<double>(la::petsc::Matrix::set_fn(_A, INSERT_VALUES), *_problem.V(),
@@ -730,8 +850,7 @@ void NonlinearSolver::assemble_three_field_jacobian()
   if (_constraint)
   {
     const bool first = !_A_red;
-    MatPtAP(_A, _constraint->T(), first ? MAT_INITIAL_MATRIX : MAT_REUSE_MATRIX,
-            PETSC_DEFAULT, &_A_red);
+    reduce(_A_red, first);
     if (first and _near_null_space)
       MatSetNearNullSpace(_A_red, _near_null_space);
     K = _A_red;

@@ -11,7 +11,7 @@
 
 namespace muscle
 {
-class UniformDisplacementConstraint;
+class DisplacementConstraint;
 class FbarCellUnknowns;
 
 /// Newton settings; PETSc command-line options (-snes_*, -ksp_*, -pc_*)
@@ -68,8 +68,21 @@ struct NewtonReport
   bool non_finite = false;            ///< a residual evaluation produced NaN/inf
 };
 
+/// A contribution to the residual and tangent that is no form (contact): added
+/// at the current displacement into full-layout PETSc objects by global index
+/// (rows and columns of fixed dofs left out: negative indices).
+class NonlinearTerm
+{
+public:
+  virtual ~NonlinearTerm() = default;
+  virtual void add_residual(Vec F) = 0;
+  virtual void add_jacobian(Mat A) = 0;
+  /// What to say when Newton fails ("" if nothing).
+  virtual std::string diagnosis() const { return ""; }
+};
+
 /// Newton's method (PETSc SNES) for the muscle residual with Dirichlet
-/// conditions and, optionally, a uniform-displacement constraint.  The
+/// conditions and, optionally, a linear constraint (uniform-axial, tie).  The
 /// residual callback refreshes the quadrature-point activation kernels at the
 /// evaluation point, so the tangent is exact at every iterate.  A non-finite
 /// residual or a kernel without admissible root is reported to SNES as a
@@ -79,18 +92,27 @@ class NonlinearSolver
 public:
   NonlinearSolver(MuscleProblem& problem,
                   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> bcs,
-                  std::shared_ptr<const UniformDisplacementConstraint> constraint = nullptr,
+                  std::shared_ptr<const DisplacementConstraint> constraint = nullptr,
                   NewtonOptions options = {});
 
   /// A body of several parts (regions of one mesh with their own material)
   /// sharing one displacement: residuals and Jacobians are summed.
   NonlinearSolver(std::vector<MuscleProblem*> parts,
                   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> bcs,
-                  std::shared_ptr<const UniformDisplacementConstraint> constraint = nullptr,
+                  std::shared_ptr<const DisplacementConstraint> constraint = nullptr,
                   NewtonOptions options = {});
   ~NonlinearSolver();
   NonlinearSolver(const NonlinearSolver&) = delete;
   NonlinearSolver& operator=(const NonlinearSolver&) = delete;
+
+  /// Forms added to every residual and Jacobian (external loads, cpp/fem/loads.h):
+  /// residuals of the displacement's test space, Jacobians on its trial space
+  /// too, each with its own integration domains.
+  void add_forms(std::vector<std::shared_ptr<const dolfinx::fem::Form<double>>> residuals,
+                 std::vector<std::shared_ptr<const dolfinx::fem::Form<double>>> jacobians);
+
+  /// A term added to every residual and Jacobian (contact).
+  void add_term(std::shared_ptr<NonlinearTerm> term);
 
   /// Solve from the current displacement; on failure u holds the last iterate
   /// (callers restore their own copy).
@@ -132,6 +154,9 @@ private:
   // Three-field F-bar (cell unknowns next to u in the SNES vector)
   void create_cell_unknowns();
   void set_extended_state(Vec x_ext);
+  /// One full Newton step when boundary values moved (see the definition).
+  void first_full_step();
+  int _full_steps = 0;
   void extended_residual(Vec F_ext);
   void assemble_three_field_jacobian();
   static PetscErrorCode condensed_solve(PC pc, Vec b, Vec y);
@@ -153,7 +178,16 @@ private:
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh
   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> _bcs;
-  std::shared_ptr<const UniformDisplacementConstraint> _constraint;
+  std::vector<std::shared_ptr<const dolfinx::fem::Form<double>>> _extra_residuals,
+      _extra_jacobians;
+  std::vector<std::shared_ptr<NonlinearTerm>> _terms;
+  Vec _term_F = nullptr;
+  /// b (owned) += the terms' residuals
+  void add_term_residuals(std::span<double> b) const;
+  /// J = T^T A T, rebuilt when A gained nonzeros (contact couples new dofs)
+  void reduce(Mat J, bool first);
+  PetscObjectState _reduced_state = -1;
+  std::shared_ptr<const DisplacementConstraint> _constraint;
   NewtonOptions _options;
 
   SNES _snes = nullptr;

@@ -67,23 +67,6 @@ UniformDisplacementConstraint::~UniformDisplacementConstraint()
     MatDestroy(&_T);
 }
 
-Vec UniformDisplacementConstraint::create_reduced_vector() const
-{
-  Vec x;
-  MatCreateVecs(_T, &x, nullptr);
-  return x;
-}
-
-void UniformDisplacementConstraint::prolong(Vec x, dolfinx::la::Vector<double>& u) const
-{
-  Vec full;
-  VecCreateMPIWithArray(_comm, 1, _num_owned, PETSC_DETERMINE,
-                        u.mutable_array().data(), &full);
-  MatMult(_T, x, full);
-  VecDestroy(&full);
-  u.scatter_fwd();
-}
-
 double UniformDisplacementConstraint::value(const dolfinx::la::Vector<double>& u) const
 {
   const std::span<const double> a = u.array();
@@ -104,10 +87,7 @@ void UniformDisplacementConstraint::restrict_to(const dolfinx::la::Vector<double
   const double U = value(u);
   PetscScalar* xr;
   VecGetArray(x, &xr);
-  const std::span<const double> a = u.array();
-  for (std::int32_t i = 0; i < _num_owned; ++i)
-    if (_reduced_index[i] >= 0)
-      xr[_reduced_index[i]] = a[i];
+  copy_free_dofs(u, xr);
   int rank;
   MPI_Comm_rank(_comm, &rank);
   if (rank == 0)

@@ -1,5 +1,7 @@
 #pragma once
 
+#include "constraint.h"
+
 #include <dolfinx/fem/FunctionSpace.h>
 #include <dolfinx/la/Vector.h>
 #include <petscmat.h>
@@ -16,7 +18,7 @@ namespace muscle
 /// of freedom plus one global unknown U, T is a 0/1 prolongation matrix, and
 /// the Newton system is T^T J T.  The equation for U is the sum of the
 /// constrained rows: the total force on the constrained set is zero.
-class UniformDisplacementConstraint
+class UniformDisplacementConstraint : public DisplacementConstraint
 {
 public:
   /// `dofs`: local (owned or ghost) unrolled indices into V's vector.
@@ -26,17 +28,10 @@ public:
   UniformDisplacementConstraint(const UniformDisplacementConstraint&) = delete;
   UniformDisplacementConstraint& operator=(const UniformDisplacementConstraint&) = delete;
 
-  /// Prolongation full <- reduced (rows: owned full dofs).
-  Mat T() const { return _T; }
+  Mat T() const override { return _T; }
 
-  /// A new reduced vector (caller destroys it).
-  Vec create_reduced_vector() const;
-
-  /// u = T x (owned part), then ghost update.
-  void prolong(Vec x, dolfinx::la::Vector<double>& u) const;
-
-  /// x from u: unconstrained entries copied, U taken from the constrained set.
-  void restrict_to(const dolfinx::la::Vector<double>& u, Vec x) const;
+  /// x from u: unconstrained entries copied, U the constrained set's mean.
+  void restrict_to(const dolfinx::la::Vector<double>& u, Vec x) const override;
 
   /// Current common value U of the constrained dofs, from u (collective).
   double value(const dolfinx::la::Vector<double>& u) const;
@@ -48,7 +43,6 @@ private:
   MPI_Comm _comm;
   Mat _T = nullptr;
   std::int32_t _num_owned;
-  std::vector<std::int32_t> _reduced_index; ///< owned full dof -> local reduced index or -1
   std::vector<std::int32_t> _constrained_owned;
   PetscInt _reduced_local_size;
   std::int64_t _global_count;

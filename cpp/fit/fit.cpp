@@ -29,7 +29,7 @@ std::string fmt(const char* format, double v)
   return buffer;
 }
 
-const ParameterSpec& spec_of(Model model, const std::string& name)
+const ParameterSpec& spec_of(const Model& model, const std::string& name)
 {
   for (const ParameterSpec& s : parameter_specs(model))
     if (s.name == name)
@@ -215,17 +215,10 @@ std::string name_list(const std::vector<std::pair<std::string, double>>& c)
 }
 } // namespace
 
-std::vector<std::string> default_free_parameters(Model model)
+std::vector<std::string> default_free_parameters(const Model& model)
 {
-  switch (model)
-  {
-  case Model::ble:
-    return {"G1", "G2", "P1", "P2", "lambda_opt", "alpha_a", "mu"};
-  case Model::combi:
-    return {"alpha", "beta", "gamma", "omega_0", "lambda_opt", "lambda_min", "P_opt"};
-  default:
-    return {"alpha", "beta", "gamma", "omega_0", "lambda_opt", "lambda_min", "N_a"};
-  }
+  const auto& names = model.law().fit_parameters;
+  return {names.begin(), names.end()};
 }
 
 ErrorMeasures error_measures(const std::vector<double>& x, const std::vector<double>& xs)

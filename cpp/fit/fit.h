@@ -18,7 +18,7 @@ namespace muscle::fit
 /// (Table fitting_all).  BLE: G1 G2 P1 P2 lambda_opt alpha_a mu; WKM/GIANT:
 /// alpha beta gamma omega_0 lambda_opt lambda_min N_a (P_opt follows N_a);
 /// COMBI: alpha beta gamma omega_0 lambda_opt lambda_min P_opt.
-std::vector<std::string> default_free_parameters(Model model);
+std::vector<std::string> default_free_parameters(const Model& model);
 
 struct Bounds
 {
@@ -123,8 +123,8 @@ Identifiability analyse_identifiability(const std::vector<double>& jacobian,
 
 struct FitResult
 {
-  ParameterSet start{Model::ble};
-  ParameterSet fitted{Model::ble};
+  ParameterSet start{Model("ble")};
+  ParameterSet fitted{Model("ble")};
   std::vector<std::string> free;
   std::vector<std::string> at_bound; ///< free parameters that end on a bound
   std::vector<double> residuals;     ///< weighted, at the solution

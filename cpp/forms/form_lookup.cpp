@@ -57,24 +57,19 @@ const FeVariant& find_fe_variant(const std::string& model,
   if (fbar)
     wanted += " as F-bar element";
   std::string why;
-  const bool ble = model.rfind("ble", 0) == 0;
   if (fbar)
     why = " F-bar is compiled for hexahedra of degree 1 with quadrature degree 2 (Q2 does "
           "not lock; on tetrahedra the centre value is the whole P1 field).";
-  else if (volumetric_quadrature_degree != quadrature_degree and !ble)
-    why = " The anti-locking element is compiled for BLE only: WKM, GIANT and COMBI need "
-          "their coupled penalty at every quadrature point (on one point their volume "
-          "modes within a cell are unstable, so compiling it would not help; "
-          "BENCHMARKS.md). Their locking-free Q1 is the F-bar element (fusiform --fbar, "
-          "scene element.fbar: true).";
   else if (volumetric_quadrature_degree != quadrature_degree)
-    why = " The standard build has BLE's anti-locking element on hexahedra of degree 1 "
-          "with quadrature degree 2 and volumetric degree 1.";
+    why = " The anti-locking element is compiled on hexahedra of degree 1 for the laws "
+          "whose file gives volumetric_stiff_part (BLE: WKM, GIANT and COMBI need their "
+          "coupled penalty at every quadrature point; BENCHMARKS.md). The locking-free "
+          "Q1 of every law is the F-bar element (the default).";
   throw InputError("no compiled kernels for model " + model + " on " + cell
                    + " degree " + std::to_string(degree) + " with " + wanted
                    + "; compiled: " + join(available, "; ") + "." + why
                    + " Add a variant with cmake -DMUSCLE_EXTRA_VARIANTS="
-                     "MODEL:CELL:DEGREE:QDEG[:VQDEG|:fbar] (cell hex or tet) and rebuild.");
+                     "KERNELS:CELL:DEGREE:QDEG[:VQDEG] (cell hex or tet) and rebuild.");
 }
 
 const MaterialPointVariant& find_material_point_variant(const std::string& model)

@@ -4,9 +4,43 @@
 #include <ufcx.h>
 #include <vector>
 
-/// The table of FFCx-generated code (forms/compile_forms.py writes the .cpp).
+/// The tables generated from the law files (forms/compile_forms.py writes the .cpp):
+/// the material laws, and the FFCx-generated code of their kernels.
 namespace muscle::forms
 {
+
+/// One parameter of a law: preset and admissible range (law file's PARAMETERS).
+struct ParameterInfo
+{
+  const char* name;
+  double preset;
+  double lower;
+  double upper;
+  bool lower_open;
+  bool upper_open;
+  const char* unit; ///< mm, s, kPa (= mN/mm^2), mN; "-" if dimensionless
+  const char* meaning;
+};
+
+/// A material law as its file declares it (forms/muscleforms/law.py).
+struct LawInfo
+{
+  const char* name;
+  const char* description; ///< the file's first docstring line
+  const char* source;      ///< the law file
+  std::vector<ParameterInfo> parameters; ///< the law's, then its time function's
+  const char* drive;         ///< "none", "level" (time factor x scale) or "omega_kernel"
+  const char* time_function; ///< "none", "tanh" or "twitch_train"
+  const char* omega_kernel;  ///< the C++ quadrature-point kernel ("wkm", "giant") or ""
+  int taylor_order;          ///< derivatives of omega_a the forms read
+  bool stress_holds_omega;   ///< the stress treats omega_a as fixed (WKM, eq. S_WKM)
+  const char* passive;       ///< kernel set of the passive state
+  bool anti_locking;         ///< has the Q1 with the volumetric part on one point
+  std::vector<const char*> fit_parameters; ///< freed by the fit by default
+};
+
+/// Every law, in file-name order.
+const std::vector<LawInfo>& laws();
 
 /// The F-bar hexahedron's own kernels (forms/muscleforms/fbar.py): a mixed
 /// element on (u, J0) whose J0 = det F at the centre C++ eliminates per cell.
@@ -23,7 +57,7 @@ struct FbarForms
 /// Finite-element kernels of one material model on one element type.
 struct FeVariant
 {
-  const char* model;  ///< ble, wkm, giant, combi, ble_passive, ehret_passive, neohooke
+  const char* model;  ///< kernel set: a law's name, or "<law>_passive"
   const char* cell;   ///< hexahedron or tetrahedron
   int degree;         ///< Lagrange degree of the displacement
   int quadrature_degree;
@@ -66,7 +100,22 @@ struct FibreVariant
   ufcx_expression* gradient; ///< grad(potential) at the cell midpoint
 };
 
+/// External loads on one element type (forms/muscleforms/loads.py): each
+/// surface load integrates over the facets tagged 1.
+struct LoadVariant
+{
+  const char* cell;
+  int degree;
+  ufcx_form* pressure_residual; ///< follower pressure, constant "pressure"
+  ufcx_form* pressure_jacobian;
+  ufcx_form* traction_residual; ///< dead traction, constant vector "traction"
+  ufcx_form* gravity_residual;  ///< DG0 "density" x constant vector "gravity"
+  ufcx_form* area;              ///< functional: current area of the surface
+  ufcx_function_space* (*function_space)(const char*);
+};
+
 const std::vector<FeVariant>& fe_variants();
+const std::vector<LoadVariant>& load_variants();
 const std::vector<FibreVariant>& fibre_variants();
 const std::vector<MaterialPointVariant>& material_point_variants();
 

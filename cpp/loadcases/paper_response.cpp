@@ -215,19 +215,16 @@ std::optional<double> ehret(const ParameterSet& p, LoadCase c, double f_t,
   {
     if (c != LoadCase::UTCAF)
       return std::nullopt;
-    switch (p.model())
-    {
-    case Model::wkm:
+    const std::string law = p.model().name();
+    if (law == "wkm")
       return wkm_utcaf(l, wkm_omega_paper(l, e), e);
-    case Model::combi:
+    if (law == "combi")
     {
       const auto [w, dw] = combi_omega_paper(l, e);
       const double I = l * l * (2.0 / 3 * w0 * (1 / (l * l * l) - 1) + 1 + w);
       return wkm_utcaf(l, w, e) + e.gamma / 4 * l * l * e.eI(I) * dw;
     }
-    default:
-      return giant_utcaf(l, e);
-    }
+    return giant_utcaf(l, e);
   }
   const double l4 = std::pow(l, -4);
   switch (c)
@@ -271,13 +268,24 @@ std::optional<double> ehret(const ParameterSet& p, LoadCase c, double f_t,
 
 } // namespace
 
+const std::vector<Model>& paper_models()
+{
+  static const std::vector<Model> models
+      = {Model("ble"), Model("wkm"), Model("giant"), Model("combi")};
+  return models;
+}
+
 std::optional<double> paper_response(const ParameterSet& p, LoadCase c,
                                      MuscleState state, double s)
 {
   const double f_t = state == MuscleState::active ? 1.0 : 0.0;
-  if (p.model() == Model::ble)
+  // the formulas the paper prints, for its four models; other laws have none
+  const std::string law = p.model().name();
+  if (law == "ble")
     return ble(p, c, f_t, s);
-  return ehret(p, c, f_t, s);
+  if (law == "wkm" or law == "giant" or law == "combi")
+    return ehret(p, c, f_t, s);
+  return std::nullopt;
 }
 
 } // namespace muscle

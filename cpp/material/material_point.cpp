@@ -3,6 +3,7 @@
 #include "../common/errors.h"
 #include "../forms/form_registry.h"
 
+#include <map>
 #include <stdexcept>
 #include <ufcx.h>
 
@@ -20,18 +21,19 @@ EhretParameters ehret_parameters(const ParameterSet& p)
           p["omega_0"], p["lambda_min"], p["lambda_opt"]};
 }
 
-OmegaTaylor activation_kernel(Model model, double stretch, double level,
+OmegaTaylor activation_kernel(const Model& model, double stretch, double level,
                               const EhretParameters& p, double root_tolerance)
 {
-  switch (model)
-  {
-  case Model::wkm:
-    return wkm_omega(stretch, level, p, root_tolerance);
-  case Model::giant:
-    return giant_omega(stretch, level, p, root_tolerance);
-  default:
-    return {};
-  }
+  // the kernels of activation_kernels.cpp, by the name a law file gives
+  // (forms/muscleforms/law.py OMEGA_KERNELS)
+  using Kernel = OmegaTaylor (*)(double, double, const EhretParameters&, double);
+  static const std::map<std::string, Kernel> kernels
+      = {{"wkm", &wkm_omega}, {"giant", &giant_omega}};
+  auto it = kernels.find(model.law().omega_kernel);
+  if (it == kernels.end())
+    throw std::logic_error("law " + model.name() + ": no omega kernel '"
+                           + model.law().omega_kernel + "'");
+  return it->second(stretch, level, p, root_tolerance);
 }
 
 namespace
@@ -52,7 +54,8 @@ MaterialPointModel::MaterialPointModel(const ParameterSet& parameters,
 
 bool MaterialPointModel::has_activation_kernel() const
 {
-  return _kernels == "wkm" or _kernels == "giant";
+  // a law's passive counterpart has no omega_a
+  return _kernels == _parameters.model().name() and _parameters.model().has_activation_kernel();
 }
 
 std::vector<double> MaterialPointModel::evaluate(const ufcx_expression& e,

@@ -76,7 +76,7 @@ double activation_level(const ParameterSet& p, double time_factor, double scale)
 EhretParameters ehret_parameters(const ParameterSet& p);
 
 /// The quadrature-point kernel of a model: wkm_omega, giant_omega, or zero.
-OmegaTaylor activation_kernel(Model model, double stretch, double level,
+OmegaTaylor activation_kernel(const Model& model, double stretch, double level,
                               const EhretParameters& p,
                               double root_tolerance = default_root_tolerance);
 

@@ -9,89 +9,13 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <sstream>
 
 namespace muscle
 {
 namespace
 {
-constexpr double inf = std::numeric_limits<double>::infinity();
-
-ParameterSpec positive(std::string name, double preset, std::string unit,
-                       std::string meaning)
-{
-  return {std::move(name), preset, 0, inf, true, true, std::move(unit),
-          std::move(meaning)};
-}
-
-ParameterSpec nonnegative(std::string name, double preset, std::string unit,
-                          std::string meaning)
-{
-  return {std::move(name), preset, 0, inf, false, true, std::move(unit),
-          std::move(meaning)};
-}
-
-std::vector<ParameterSpec> time_parameters()
-{
-  return {positive("c", 34.4017, "1/s", "frequency of the tanh activation"),
-          {"t0", 0.0, -inf, inf, true, true, "s", "activation start time"}};
-}
-
-std::vector<ParameterSpec> ble_specs()
-{
-  std::vector<ParameterSpec> s = {
-      nonnegative("G1", 0.1, "kPa", "along-fibre shear modulus"),
-      nonnegative("G2", 0.05, "kPa", "transverse-fibre shear modulus"),
-      nonnegative("P1", 3.6055, "-", "magnitude of passive fibre tension"),
-      positive("P2", 4.4883, "-", "exponential rate of passive fibre tension"),
-      positive("lambda_opt", 1.2264, "-", "optimal fibre stretch"),
-      {"lambda_star", 1.4, 1, inf, true, true, "-",
-       "fibre stretch where passive tension turns linear"},
-      nonnegative("sigma_max", 1.145, "kPa", "maximum isometric stress"),
-      nonnegative("alpha_a", 69.5471, "-", "activation amplitude"),
-  };
-  for (auto& t : time_parameters())
-    s.push_back(t);
-  s.push_back(nonnegative("mu", 10.0, "kPa", "Neo-Hooke shear modulus"));
-  s.push_back(positive("kappa", 10000.0, "kPa", "bulk modulus"));
-  return s;
-}
-
-std::vector<ParameterSpec> ehret_specs(Model model)
-{
-  std::vector<ParameterSpec> s = {
-      positive("alpha", 2.3796, "-", "along-fibre exponent"),
-      positive("beta", 0.5161, "-", "transverse exponent"),
-      positive("gamma", 27.1072, "kPa", "stiffness"),
-      {"omega_0", 0.6388, 0, 1, false, false, "-",
-       "weight of the isotropic matrix"},
-      positive("kappa", 1000.0, "-", "incompressibility parameter"),
-      positive("lambda_opt", 1.1806, "-", "optimal fibre stretch"),
-      positive("lambda_min", 0.5680, "-", "minimal active fibre stretch"),
-      nonnegative("P_opt", 64.6809, "kPa", "peak active nominal stress"),
-  };
-  for (auto& t : time_parameters())
-    s.push_back(t);
-  if (uses_twitch_train(model))
-  {
-    s.push_back(nonnegative("N_a", 0.4619, "1/mm^2",
-                            "activated motor units per reference area"));
-    const double F[] = {2.5, 4.4, 76.8};
-    const double T[] = {0.02, 0.011, 0.011};
-    const double rho[] = {0.05, 0.29, 0.66};
-    for (int i = 0; i < 3; ++i)
-    {
-      const std::string k = std::to_string(i + 1);
-      s.push_back(nonnegative("F_" + k, F[i], "mN", "twitch force of type " + k));
-      s.push_back(positive("T_" + k, T[i], "s", "twitch contraction time"));
-      s.push_back(positive("I_" + k, 0.004, "s", "interstimulus interval"));
-      s.push_back({"rho_" + k, rho[i], 0, 1, false, false, "-",
-                   "fraction of motor-unit type " + k});
-    }
-  }
-  return s;
-}
-
 /// Shortest representation that reads back to the same double.
 std::string format_value(double v)
 {
@@ -107,67 +31,74 @@ std::string format_value(double v)
 
 } // namespace
 
-const std::vector<Model>& all_models()
-{
-  static const std::vector<Model> models
-      = {Model::ble, Model::wkm, Model::giant, Model::combi};
-  return models;
-}
-
-std::string to_string(Model model)
-{
-  switch (model)
-  {
-  case Model::ble:
-    return "ble";
-  case Model::wkm:
-    return "wkm";
-  case Model::giant:
-    return "giant";
-  case Model::combi:
-    return "combi";
-  }
-  return "?";
-}
-
-Model parse_model(const std::string& name)
+Model::Model(const std::string& name)
 {
   std::string lower = name;
   std::transform(lower.begin(), lower.end(), lower.begin(),
                  [](unsigned char c) { return std::tolower(c); });
   std::vector<std::string> names;
-  for (Model m : all_models())
+  for (const forms::LawInfo& law : forms::laws())
   {
-    if (lower == to_string(m))
-      return m;
-    names.push_back(to_string(m));
+    if (lower == law.name)
+    {
+      _law = &law;
+      return;
+    }
+    names.push_back(law.name);
   }
   throw InputError("unknown model '" + name + "'" + did_you_mean(lower, names)
-                   + "; allowed: " + join(names));
+                   + "; laws: " + join(names)
+                   + " (forms/materials/*.py and MUSCLE_MATERIALS)");
 }
 
-bool uses_twitch_train(Model model)
+bool Model::active() const
 {
-  return model == Model::wkm or model == Model::giant;
+  return std::string(_law->drive) != "none";
 }
 
-const std::vector<ParameterSpec>& parameter_specs(Model model)
+bool Model::has_activation_kernel() const
 {
-  static const std::vector<ParameterSpec> ble = ble_specs();
-  static const std::vector<ParameterSpec> wkm = ehret_specs(Model::wkm);
-  static const std::vector<ParameterSpec> giant = ehret_specs(Model::giant);
-  static const std::vector<ParameterSpec> combi = ehret_specs(Model::combi);
-  switch (model)
+  return std::string(_law->drive) == "omega_kernel";
+}
+
+const std::vector<Model>& all_models()
+{
+  static const std::vector<Model> models = []
   {
-  case Model::ble:
-    return ble;
-  case Model::wkm:
-    return wkm;
-  case Model::giant:
-    return giant;
-  default:
-    return combi;
+    std::vector<Model> out;
+    for (const forms::LawInfo& law : forms::laws())
+      out.emplace_back(law.name);
+    return out;
+  }();
+  return models;
+}
+
+std::string to_string(const Model& model)
+{
+  return model.name();
+}
+
+Model parse_model(const std::string& name)
+{
+  return Model(name);
+}
+
+bool uses_twitch_train(const Model& model)
+{
+  return std::string(model.law().time_function) == "twitch_train";
+}
+
+const std::vector<ParameterSpec>& parameter_specs(const Model& model)
+{
+  static std::map<const forms::LawInfo*, std::vector<ParameterSpec>> specs;
+  auto [it, inserted] = specs.try_emplace(&model.law());
+  if (inserted)
+  {
+    for (const forms::ParameterInfo& p : model.law().parameters)
+      it->second.push_back({p.name, p.preset, p.lower, p.upper, p.lower_open,
+                            p.upper_open, p.unit, p.meaning});
   }
+  return it->second;
 }
 
 ParameterSet::ParameterSet(Model model) : _model(model)

@@ -1,31 +1,46 @@
 #pragma once
 
+#include "../forms/form_registry.h"
+
 #include <string>
 #include <vector>
 
 namespace muscle
 {
 
-/// The four muscle models of the paper.
-enum class Model
+/// A material law of the registry: forms/materials/*.py and the files named in
+/// MUSCLE_MATERIALS, one law a file (docs/materials.md).  What C++ knows of a law
+/// comes from the declarations in its file (forms::LawInfo).
+class Model
 {
-  ble,   ///< Blemker active stress + Neo-Hooke
-  wkm,   ///< Weickenmeier generalized active strain
-  giant, ///< Giantesio active strain, implicit activation
-  combi, ///< the paper's modified model
+public:
+  /// The law of this name (case-insensitive); InputError listing the laws otherwise.
+  explicit Model(const std::string& name);
+
+  std::string name() const { return _law->name; }
+  const forms::LawInfo& law() const { return *_law; }
+  /// Has an active term (drive other than "none").
+  bool active() const;
+  /// omega_a comes from a C++ quadrature-point kernel (WKM, GIANT).
+  bool has_activation_kernel() const;
+
+  bool operator==(const Model& other) const { return _law == other._law; }
+
+private:
+  const forms::LawInfo* _law;
 };
 
+/// Every law of the registry, in file-name order.
 const std::vector<Model>& all_models();
-std::string to_string(Model model);
-/// Parse "ble", "wkm", "giant", "combi" (case-insensitive); InputError otherwise.
+std::string to_string(const Model& model);
 Model parse_model(const std::string& name);
 
-/// WKM and GIANT drive activation by a motor-unit twitch train; BLE and COMBI by
-/// tanh(c (t - t0)).
-bool uses_twitch_train(Model model);
+/// The law's activation follows a motor-unit twitch train (WKM, GIANT) rather
+/// than tanh(c (t - t0)) (BLE, COMBI).
+bool uses_twitch_train(const Model& model);
 
-/// One material parameter: its preset value (paper Table fitting_all) and the
-/// admissible range.
+/// One material parameter: its preset value (the law file's; for the paper's
+/// laws Table fitting_all) and the admissible range.
 struct ParameterSpec
 {
   std::string name;
@@ -38,11 +53,11 @@ struct ParameterSpec
   std::string meaning;
 };
 
-const std::vector<ParameterSpec>& parameter_specs(Model model);
+const std::vector<ParameterSpec>& parameter_specs(const Model& model);
 
-/// Material parameters of one model: preset values, overridable by name.
+/// Material parameters of one law: preset values, overridable by name.
 ///
-/// Units: mm, s, kPa.  For WKM and GIANT, P_opt (the peak active nominal stress
+/// Units: mm, s, kPa.  For twitch-train laws (WKM, GIANT), P_opt (the peak active nominal stress
 /// used when the time factor is 1, e.g. in the active load cases) defaults to the
 /// tetanic level of the twitch train, N_a sum_i rho_i G_i e F_i T_i / I_i, and
 /// follows the twitch parameters unless it is set explicitly.

@@ -61,6 +61,8 @@ double tanh_activation(double c, double t0, double t)
 
 double time_factor(const ParameterSet& p, double t)
 {
+  if (!p.model().active())
+    return 0.0;
   if (uses_twitch_train(p.model()))
   {
     const TwitchTrain train(p);

@@ -3,13 +3,18 @@
 #include "../common/application.h"
 #include "../common/errors.h"
 #include "../fem/boundary.h"
+#include "../fem/contact.h"
 #include "../fem/element_choice.h"
 #include "../fem/fibres.h"
+#include "../fem/loads.h"
 #include "../fem/muscle_problem.h"
 #include "../fem/point_probe.h"
+#include "../fem/rigid_rotation.h"
+#include "../fem/tie_constraint.h"
 #include "../fem/uniform_constraint.h"
 #include "../io/gmsh_mesh.h"
 #include "../io/surface_export.h"
+#include "../material/material_point.h"
 #include "../material/time_functions.h"
 #include "checkpoint.h"
 #include "point_data.h"
@@ -403,10 +408,26 @@ void run_scene(const Scene& scene, const RunOptions& options)
   auto V = problem.V();
   std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs;
   std::vector<std::pair<std::shared_ptr<fem::Constant<double>>, const BoundaryCondition*>> moving;
-  std::shared_ptr<UniformDisplacementConstraint> constraint;
+  std::shared_ptr<DisplacementConstraint> constraint;
   std::set<std::string> supports; // surfaces with Dirichlet values (reactions)
+  std::vector<std::array<double, 3>> fixed_points; // nodes of fix_point
   for (const BoundaryCondition& bc : scene.boundary)
   {
+    if (bc.kind == BoundaryCondition::Kind::point)
+    {
+      // a point inside the body (or within half an element of it): its nearest node
+      const PointProbe probe(problem.u(), bc.at);
+      const double size = std::cbrt(total_volume() / std::max<std::int64_t>(gm.num_cells, 1));
+      if (probe.distance() > 0.5 * size)
+        throw InputError(bc.where.text() + ".fix_point: (" + std::to_string(bc.at[0]) + ", "
+                         + std::to_string(bc.at[1]) + ", " + std::to_string(bc.at[2])
+                         + ") lies " + std::to_string(probe.distance())
+                         + " mm outside the body, more than half an element");
+      std::array<double, 3> node;
+      bcs.push_back(fix_nearest_node(V, bc.at, node));
+      fixed_points.push_back(node);
+      continue;
+    }
     const auto facets = tagged_facets(*gm.facet_tags, surface(bc.surface, bc.where));
     supports.insert(bc.surface);
     if (bc.kind == BoundaryCondition::Kind::clamp)
@@ -420,6 +441,105 @@ void run_scene(const Scene& scene, const RunOptions& options)
     else
       constraint = std::make_shared<UniformDisplacementConstraint>(
           *V, component_dofs(*V, facets, bc.component));
+  }
+
+  // Ties of separately meshed bodies: one constraint for all pairs (none without ties)
+  std::shared_ptr<TieConstraint> tie;
+  if (!scene.ties.empty())
+  {
+    if (constraint)
+      throw InputError(scene.ties[0].where.text()
+                       + ": a tie and a uniform_axial condition in one scene are not "
+                         "supported; use one of them");
+    const double size = std::cbrt(total_volume() / std::max<std::int64_t>(gm.num_cells, 1));
+    std::vector<TieConstraint::Pair> pairs;
+    for (std::size_t i = 0; i < scene.ties.size(); ++i)
+    {
+      const TieSpec& t = scene.ties[i];
+      pairs.push_back({t.where.text(), tagged_facets(*gm.facet_tags, surface(t.slave, t.where)),
+                       tagged_facets(*gm.facet_tags, surface(t.master, t.where)),
+                       t.tolerance > 0 ? t.tolerance : 0.25 * size});
+    }
+    std::vector<std::int32_t> fixed;
+    for (const auto& bc : bcs)
+      fixed.insert(fixed.end(), bc->dof_indices().first.begin(), bc->dof_indices().first.end());
+    std::sort(fixed.begin(), fixed.end());
+    tie = std::make_shared<TieConstraint>(*V, pairs, fixed);
+    constraint = tie;
+  }
+
+  // Contact pairs (none without contact)
+  std::vector<std::shared_ptr<ContactPair>> contacts;
+  nlohmann::json built_contacts = nlohmann::json::array();
+  if (!scene.contacts.empty())
+  {
+    const double size = std::cbrt(total_volume() / std::max<std::int64_t>(gm.num_cells, 1));
+    // the default penalty: 10 x the stiffest part's tangent at rest per element size
+    double stiffness = 0;
+    for (const Part& part : scene.parts)
+    {
+      MaterialPointModel m(part.parameters);
+      m.set_time_factor(0);
+      stiffness = std::max(stiffness, m.tangent(MaterialPoint{})[0]);
+    }
+    std::vector<std::int32_t> fixed;
+    for (const auto& bc : bcs)
+      fixed.insert(fixed.end(), bc->dof_indices().first.begin(), bc->dof_indices().first.end());
+    std::sort(fixed.begin(), fixed.end());
+    for (std::size_t i = 0; i < scene.contacts.size(); ++i)
+    {
+      const ContactSpec& c = scene.contacts[i];
+      const double eps = c.penalty > 0 ? c.penalty : 10 * stiffness / size;
+      contacts.push_back(std::make_shared<ContactPair>(
+          problem.u(),
+          ContactPair::Settings{c.where.text(),
+                                tagged_facets(*gm.facet_tags, surface(c.slave, c.where)),
+                                tagged_facets(*gm.facet_tags, surface(c.master, c.where)), eps,
+                                size},
+          fixed));
+      built_contacts.push_back({{"pair", c.slave + " on " + c.master},
+                                {"penalty", eps},
+                                {"penalty_default", !(c.penalty > 0)}});
+      if (!options.quiet and is_root())
+        std::printf("contact[%zu] %s on %s: penalty %.6g kPa/mm%s\n", i, c.slave.c_str(),
+                    c.master.c_str(), eps,
+                    c.penalty > 0 ? "" : " (10 x the stiffest tangent / element size)");
+    }
+  }
+
+  // External loads: forms of their own, only when the scene has loads
+  std::unique_ptr<Loads> loads;
+  if (!scene.loads.empty())
+  {
+    loads = std::make_unique<Loads>(problem.u());
+    const auto exterior = mesh::exterior_facet_indices(mesh->topology());
+    const std::int32_t owned_facets = mesh->topology().index_map(2)->size_local();
+    for (const LoadSpec& l : scene.loads)
+    {
+      auto value = [&l](double t) { return l.value(t); };
+      if (l.kind == LoadSpec::Kind::gravity)
+      {
+        auto cell_map = mesh->topology().index_map(3);
+        std::vector<double> density(cell_map->size_local() + cell_map->num_ghosts(), 0.0);
+        for (std::size_t p = 0; p < body.size(); ++p)
+          for (std::int32_t c : body[p]->cells())
+            density[c] = scene.parts[p].density;
+        loads->add_gravity(l.vector, value, density);
+        continue;
+      }
+      const auto facets = tagged_facets(*gm.facet_tags, surface(l.surface, l.where));
+      std::int64_t inner = std::count_if(
+          facets.begin(), facets.end(), [&](std::int32_t f)
+          { return f < owned_facets and !std::binary_search(exterior.begin(), exterior.end(), f); });
+      MPI_Allreduce(MPI_IN_PLACE, &inner, 1, MPI_INT64_T, MPI_SUM, mesh->comm());
+      if (inner > 0)
+        throw InputError(l.where.text() + ": '" + l.surface + "' has " + std::to_string(inner)
+                         + " facets inside the body; a load acts on the boundary");
+      if (l.kind == LoadSpec::Kind::pressure)
+        loads->add_pressure(l.surface, facets, value);
+      else
+        loads->add_traction(l.surface, facets, l.vector, value);
+    }
   }
 
   // Series quantities
@@ -536,6 +656,55 @@ void run_scene(const Scene& scene, const RunOptions& options)
             return global;
           });
       break;
+    case K::rotation:
+    {
+      std::size_t p = 0;
+      while (p < scene.parts.size() and scene.parts[p].name != q.part)
+        ++p;
+      if (p == scene.parts.size())
+      {
+        std::vector<std::string> names;
+        for (const Part& part : scene.parts)
+          names.push_back(part.name);
+        throw InputError(q.where.text() + ".part: no part named '" + q.part + "'; parts: "
+                         + join(names));
+      }
+      const MuscleProblem* part = body[p];
+      const int c = q.component;
+      measure.push_back([&problem, part, c]
+                        { return rotation_vector(*problem.u(), part->cells())[c]; });
+      break;
+    }
+    case K::contact_force:
+    case K::contact_area:
+    case K::max_pressure:
+    case K::max_penetration:
+    {
+      if (q.pair >= static_cast<int>(contacts.size()))
+        throw InputError(q.where.text() + ".pair: " + std::to_string(q.pair)
+                         + " names no contact pair; the scene has "
+                         + std::to_string(contacts.size()));
+      auto pair = contacts[q.pair];
+      const K kind = q.kind;
+      measure.push_back(
+          [pair, kind]
+          {
+            const ContactPair::Measures m = pair->measure();
+            switch (kind)
+            {
+            case K::contact_force:
+              return std::sqrt(m.force[0] * m.force[0] + m.force[1] * m.force[1]
+                               + m.force[2] * m.force[2]);
+            case K::contact_area:
+              return m.area;
+            case K::max_pressure:
+              return m.max_pressure;
+            default:
+              return m.max_penetration;
+            }
+          });
+      break;
+    }
     case K::point:
     {
       auto probe = std::make_shared<PointProbe>(problem.u(), q.at);
@@ -557,8 +726,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
     }
   }
 
-  const std::int64_t unknowns = V->dofmap()->index_map->size_global() * 3
-                                + (constraint ? 1 - constraint->size() : 0);
+  const std::int64_t unknowns = constraint ? constraint->reduced_size()
+                                           : V->dofmap()->index_map->size_global() * 3;
   // what each part built; the first part's at the top level
   nlohmann::json built_parts = nlohmann::json::array();
   std::string forms_text;
@@ -576,7 +745,15 @@ void run_scene(const Scene& scene, const RunOptions& options)
   }
   nlohmann::json built = built_parts[0];
   built.erase("part");
-  built["axial_constraint_unknown"] = constraint != nullptr;
+  built["axial_constraint_unknown"] = constraint != nullptr and !tie;
+  built["loads"] = loads ? loads->describe() : std::vector<std::string>{};
+  built["fixed_points"] = fixed_points;
+  built["contact"] = built_contacts;
+  built["line_search"] = !contacts.empty() and !scene.line_search_given ? std::string("bt")
+                                                                        : scene.newton.line_search;
+  built["tie_slave_nodes"] = tie ? tie->slave_nodes() : 0;
+  if (tie)
+    built["tie_largest_gap"] = tie->largest_gap();
   built["mass_matrix"] = false;
   built["element"] = {{"cell", cell_type}, {"degree", scene.mesh.degree}, {"fbar", fbar}};
   built["unknowns"] = unknowns;
@@ -679,6 +856,12 @@ void run_scene(const Scene& scene, const RunOptions& options)
         throw InputError(bc->where.text() + ": the prescribed displacement is "
                          + std::to_string(constant->value[0]) + " at t = " + std::to_string(t));
     }
+    for (const LoadSpec& l : scene.loads)
+      if (!std::isfinite(l.value(t)))
+        throw InputError(l.where.text() + ": the load's value is " + std::to_string(l.value(t))
+                         + " at t = " + std::to_string(t));
+    if (loads)
+      loads->set_time(t);
   };
   // ... and at every output time before the first solve: a negative
   // activation at t = 0.1 s should not cost a run to 0.1 s
@@ -689,7 +872,19 @@ void run_scene(const Scene& scene, const RunOptions& options)
   if (options.check_only)
     return;
   set_time(stepping.t_start);
-  NonlinearSolver solver(body, bcs, constraint, scene.newton);
+  // Contact makes the energy along a Newton direction kinked where points enter
+  // or leave contact, and the critical-point line search struggles there.
+  // Measured (Hertz scene, 2 steps): cp 33 Newton iterations + 1 cutback (54 s),
+  // basic 29 + 1 (48 s), bt 19 (35 s); sliding blocks: basic diverges, cp and bt
+  // converge.  So bt with contact unless the scene chooses.
+  NewtonOptions newton = scene.newton;
+  if (!contacts.empty() and !scene.line_search_given)
+    newton.line_search = "bt";
+  NonlinearSolver solver(body, bcs, constraint, newton);
+  if (loads)
+    solver.add_forms(loads->residuals(), loads->jacobians());
+  for (const auto& c : contacts)
+    solver.add_term(c);
   solver.restore_displacement();
   QuasiStaticStepper stepper(problem, solver, set_time, stepping);
 

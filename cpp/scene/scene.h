@@ -83,8 +83,9 @@ struct Part
   /// Volume groups of the mesh this part occupies; empty: the whole mesh
   /// (a single part).  Parts must not share a volume and must cover the mesh.
   std::vector<std::string> volumes;
-  ParameterSet parameters{Model::combi};
+  ParameterSet parameters{Model("combi")};
   bool active = true; ///< false: passive forms only, no activation kernel
+  double density = 0; ///< kg/mm^3 (1 g/cm^3 = 1e-6); 0: none given
   FibreSpec fibres;
   TimeFunction activation_time;
   ActivationScale activation_scale;
@@ -98,10 +99,44 @@ struct BoundaryCondition
     clamp,
     displacement,   ///< one component prescribed, value(t) in mm
     uniform_axial,  ///< one component equal on the surface, unknown value
+    point,          ///< the node nearest `at` fixed (all components)
   } kind = Kind::clamp;
   std::string surface;
+  std::array<double, 3> at = {0, 0, 0}; ///< point: reference coordinates [mm]
   int component = 2;
   TimeFunction value; ///< displacement
+  SceneLocation where;
+};
+
+/// An external load: follower pressure or dead traction on a surface, or gravity
+/// on every part with a density; each scaled by a function of time.
+struct LoadSpec
+{
+  enum class Kind
+  {
+    pressure, ///< kPa, follower (along the current normal, pushing for > 0)
+    traction, ///< kPa per reference area, dead: vector x value(t)
+    gravity   ///< mm/s^2: density x vector x value(t) per volume
+  } kind = Kind::pressure;
+  std::string surface; ///< pressure, traction
+  std::array<double, 3> vector = {0, 0, 0};
+  TimeFunction value; ///< pressure: kPa; traction, gravity: factor (default 1)
+  SceneLocation where;
+};
+
+/// Two separately meshed surfaces glued: the slave's nodes follow the master.
+struct TieSpec
+{
+  std::string slave, master;
+  double tolerance = -1; ///< mm; < 0: a quarter of the mean element size
+  SceneLocation where;
+};
+
+/// Frictionless penalty contact between two surfaces.
+struct ContactSpec
+{
+  std::string slave, master;
+  double penalty = -1; ///< kPa/mm; < 0: 10 x the stiffest tangent / element size
   SceneLocation where;
 };
 
@@ -117,8 +152,15 @@ struct SeriesQuantity
     stretch_ratio,///< 1 + displacement / length
     volume_change,///< V/V0 - 1
     min_J,        ///< smallest J at the quadrature points
-    point         ///< displacement (or position) of the material point nearest `at` [mm]
+    point,        ///< displacement (or position) of the material point nearest `at` [mm]
+    contact_force,   ///< |resultant| of a contact pair's normal forces [mN]
+    contact_area,    ///< area in contact [mm^2]
+    max_pressure,    ///< largest contact pressure [kPa]
+    max_penetration, ///< largest penetration [mm]
+    rotation         ///< rotation vector of a part's best rigid fit [degrees]
   } kind;
+  int pair = 0; ///< contact quantities: index into Scene::contacts
+  std::string part; ///< rotation: the part's name
   std::string name, surface;
   int component = 2;
   double length = 1; ///< stretch_ratio
@@ -166,8 +208,12 @@ struct Scene
   MeshSpec mesh;
   std::vector<Part> parts;
   std::vector<BoundaryCondition> boundary;
+  std::vector<LoadSpec> loads;
+  std::vector<TieSpec> ties;
+  std::vector<ContactSpec> contacts;
   TimeSteppingOptions time;
   NewtonOptions newton;
+  bool line_search_given = false; ///< solver.line_search in the file (else the default)
   std::vector<std::string> petsc_options;
   OutputSpec output;
 };

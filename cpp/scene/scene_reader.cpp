@@ -470,7 +470,9 @@ TimeFunction time_function(const Entry& e, bool allow_model)
 void read_material(const Entry& e, Part& part, const std::string& directory)
 {
   e.require_map({"model", "parameters", "parameter_file", "active"});
-  const std::vector<std::string> models = {"ble", "wkm", "giant", "combi"};
+  std::vector<std::string> models;
+  for (const Model& m : all_models())
+    models.push_back(m.name());
   const Entry model = e.required("model");
   part.parameters = ParameterSet(parse_model(model.choice(models)));
   part.active = e["active"].flag(true);
@@ -599,10 +601,12 @@ ActivationScale read_scale(const Entry& e, const std::string& directory)
 
 Part read_part(const Entry& e, const std::string& directory)
 {
-  e.require_map({"name", "volumes", "material", "fibres", "activation"});
+  e.require_map({"name", "volumes", "material", "fibres", "activation", "density"});
   Part part;
   part.where = e.where();
   part.name = e["name"].text("muscle");
+  if (e["density"].defined())
+    part.density = e["density"].positive(0);
   const Entry v = e["volumes"];
   if (v.defined())
   {
@@ -630,14 +634,31 @@ Part read_part(const Entry& e, const std::string& directory)
   return part;
 }
 
+std::array<double, 3> vector3(const Entry& e, const std::string& what)
+{
+  if (!e.is_sequence() or e.size() != 3)
+    e.fail("expected " + what + " [x, y, z], found " + e.shown());
+  std::array<double, 3> v;
+  for (std::size_t d = 0; d < 3; ++d)
+    v[d] = e.at(d).number();
+  return v;
+}
+
 BoundaryCondition read_condition(const Entry& e)
 {
-  const std::vector<std::string> kinds = {"clamp", "displacement", "uniform_axial"};
+  const std::vector<std::string> kinds = {"clamp", "displacement", "uniform_axial", "fix_point"};
   if (!e.is_map())
     e.fail("expected a condition (" + join(kinds) + ": SURFACE, ...), found " + e.shown());
   const std::string kind = e.one_of(kinds);
   BoundaryCondition bc;
   bc.where = e.where();
+  if (kind == "fix_point")
+  {
+    e.require_map({"fix_point"});
+    bc.kind = BoundaryCondition::Kind::point;
+    bc.at = vector3(e["fix_point"], "the reference coordinates in mm");
+    return bc;
+  }
   bc.surface = e[kind].text();
   if (kind == "clamp")
   {
@@ -660,15 +681,55 @@ BoundaryCondition read_condition(const Entry& e)
   return bc;
 }
 
+LoadSpec read_load(const Entry& e)
+{
+  const std::vector<std::string> kinds = {"pressure", "traction", "gravity"};
+  if (!e.is_map())
+    e.fail("expected a load (" + join(kinds) + ": ..., value: TIME FUNCTION), found " + e.shown());
+  const std::string kind = e.one_of(kinds);
+  LoadSpec l;
+  l.where = e.where();
+  l.kind = static_cast<LoadSpec::Kind>(std::find(kinds.begin(), kinds.end(), kind)
+                                       - kinds.begin());
+  if (kind == "pressure")
+  {
+    e.require_map({"pressure", "value"});
+    l.surface = e["pressure"].text();
+    l.value = time_function(e.required("value"), false);
+  }
+  else
+  {
+    e.require_map({kind.c_str(), "vector", "value"});
+    if (kind == "traction")
+    {
+      l.surface = e["traction"].text();
+      l.vector = vector3(e.required("vector"), "the traction in kPa");
+    }
+    else
+      l.vector = vector3(e["gravity"], "the acceleration of gravity in mm/s^2");
+    if (e["value"].defined())
+      l.value = time_function(e["value"], false);
+    else
+    {
+      l.value.kind = TimeFunction::Kind::constant;
+      l.value.value = 1;
+    }
+  }
+  return l;
+}
+
 SeriesQuantity read_quantity(const Entry& e)
 {
-  e.require_map({"name", "quantity", "surface", "component", "length", "side", "at", "of"});
+  e.require_map(
+      {"name", "quantity", "surface", "component", "length", "side", "at", "of", "pair", "part"});
   SeriesQuantity q;
   q.where = e.where();
   // in the order of SeriesQuantity::Kind
-  const std::vector<std::string> kinds = {"activation", "reaction", "section_force",
-                                          "displacement", "stretch_ratio", "volume_change",
-                                          "min_J", "point"};
+  const std::vector<std::string> kinds = {"activation",      "reaction",      "section_force",
+                                          "displacement",    "stretch_ratio", "volume_change",
+                                          "min_J",           "point",         "contact_force",
+                                          "contact_area",    "max_pressure",  "max_penetration",
+                                          "rotation"};
   const std::string kind = e.required("quantity").choice(kinds);
   q.kind = static_cast<SeriesQuantity::Kind>(
       std::find(kinds.begin(), kinds.end(), kind) - kinds.begin());
@@ -678,6 +739,13 @@ SeriesQuantity read_quantity(const Entry& e)
   if (on_surface)
   {
     q.surface = e.required("surface").text();
+    q.component = parse_component(e.required("component"));
+  }
+  else if (kind == "rotation")
+  {
+    if (e["surface"].defined())
+      e["surface"].fail("'rotation' is the rotation of a part ('part: NAME'); remove 'surface'");
+    q.part = e.required("part").text();
     q.component = parse_component(e.required("component"));
   }
   else if (kind == "point")
@@ -696,10 +764,18 @@ SeriesQuantity read_quantity(const Entry& e)
     for (const char* k : {"surface", "component"})
       if (e[k].defined())
         e[k].fail("'" + kind + "' is not measured on a surface; remove '" + k + "'");
+  if (kind != "rotation" and e["part"].defined())
+    e["part"].fail("'part' goes with the rotation quantity only");
   if (kind != "point")
     for (const char* k : {"at", "of"})
       if (e[k].defined())
         e[k].fail("'" + std::string(k) + "' goes with the point quantity only");
+  const bool contact = kind == "contact_force" or kind == "contact_area"
+                       or kind == "max_pressure" or kind == "max_penetration";
+  if (contact)
+    q.pair = e["pair"].integer(0, 0, 1000);
+  else if (e["pair"].defined())
+    e["pair"].fail("'pair' goes with the contact quantities only");
   if (kind == "stretch_ratio")
     q.length = e.required("length").positive(1);
   else if (e["length"].defined())
@@ -737,9 +813,11 @@ Scene parse_scene(const std::string& text, const std::string& name,
   if (!top.is_map())
     top.fail("a scene is a mapping with keys title, mesh, element, parts, boundary, time, "
              "solver, output; found " + top.shown());
-  top.require_map({"title", "mesh", "element", "parts", "boundary", "time", "solver", "output"});
+  top.require_map(
+      {"title", "mesh", "element", "parts", "boundary", "time", "solver", "output", "loads",
+       "tie", "contact"});
   scene.title = top["title"].text(std::filesystem::path(name).stem().string());
-  for (const char* k : {"element", "parts", "boundary"})
+  for (const char* k : {"element", "parts", "boundary", "loads", "tie", "contact"})
     scene.physics += std::string(k) + ":\n" + YAML::Dump(root[k]) + "\n";
 
   // mesh and element
@@ -807,13 +885,13 @@ Scene parse_scene(const std::string& text, const std::string& name,
     const int q = scene.mesh.quadrature_degree >= 0
                       ? scene.mesh.quadrature_degree
                       : forms::default_quadrature_degree("hexahedron", scene.mesh.degree);
-    if (vq >= 0 and vq != q and scene.parts.back().parameters.model() != Model::ble)
+    if (vq >= 0 and vq != q and !scene.parts.back().parameters.model().law().anti_locking)
       el["volumetric_quadrature_degree"].fail(
           "the anti-locking element (a volumetric quadrature degree of its own) is "
-          "compiled for BLE only, part '" + scene.parts.back().name + "' is "
+          "compiled for the laws whose file gives volumetric_stiff_part (BLE), part '"
+          + scene.parts.back().name + "' is "
           + to_string(scene.parts.back().parameters.model())
-          + ": WKM, GIANT and COMBI need their coupled penalty at every point; use "
-            "fbar: true or degree 2 (docs/scenes.md)");
+          + "; use fbar: true or degree 2 (docs/scenes.md)");
   }
 
   // boundary conditions
@@ -823,6 +901,65 @@ Scene parse_scene(const std::string& text, const std::string& name,
            + b.shown());
   for (std::size_t i = 0; i < b.size(); ++i)
     scene.boundary.push_back(read_condition(b.at(i)));
+  const Entry loads = top["loads"];
+  if (loads.defined())
+  {
+    if (!loads.is_sequence())
+      loads.fail("expected a list of loads (pressure, traction, gravity), found " + loads.shown());
+    for (std::size_t i = 0; i < loads.size(); ++i)
+    {
+      scene.loads.push_back(read_load(loads.at(i)));
+      if (scene.loads.back().kind == LoadSpec::Kind::gravity)
+        for (std::size_t p = 0; p < scene.parts.size(); ++p)
+          if (!(scene.parts[p].density > 0))
+            loads.at(i).fail("gravity needs the density of every part: parts[" + std::to_string(p)
+                             + "] ('" + scene.parts[p].name + "') has none ('density: "
+                             "RHO' in kg/mm^3; 1 g/cm^3 = 1e-6)");
+    }
+  }
+  const Entry ties = top["tie"];
+  if (ties.defined())
+  {
+    if (!ties.is_sequence())
+      ties.fail("expected a list of ties ({surfaces: [SLAVE, MASTER]}), found " + ties.shown());
+    for (std::size_t i = 0; i < ties.size(); ++i)
+    {
+      const Entry t = ties.at(i);
+      t.require_map({"surfaces", "tolerance"});
+      const Entry s = t.required("surfaces");
+      if (!s.is_sequence() or s.size() != 2)
+        s.fail("expected [SLAVE, MASTER]: the slave surface's nodes follow the master "
+               "surface; found " + s.shown());
+      TieSpec tie{s.at(0).text(), s.at(1).text(), -1, t.where()};
+      if (tie.slave == tie.master)
+        s.fail("a surface cannot be tied to itself");
+      if (t["tolerance"].defined())
+        tie.tolerance = t["tolerance"].positive(0);
+      scene.ties.push_back(tie);
+    }
+  }
+  const Entry contacts = top["contact"];
+  if (contacts.defined())
+  {
+    if (!contacts.is_sequence())
+      contacts.fail("expected a list of contact pairs ({surfaces: [SLAVE, MASTER], penalty: "
+                    "EPS}), found " + contacts.shown());
+    for (std::size_t i = 0; i < contacts.size(); ++i)
+    {
+      const Entry c = contacts.at(i);
+      c.require_map({"surfaces", "penalty"});
+      const Entry s = c.required("surfaces");
+      if (!s.is_sequence() or s.size() != 2)
+        s.fail("expected [SLAVE, MASTER]: the slave surface's points are kept out of the "
+               "master surface; found " + s.shown());
+      ContactSpec spec{s.at(0).text(), s.at(1).text(), -1, c.where()};
+      if (spec.slave == spec.master)
+        s.fail("a surface in contact with itself is not supported");
+      if (c["penalty"].defined())
+        spec.penalty = c["penalty"].positive(0);
+      scene.contacts.push_back(spec);
+    }
+  }
   int constraints = 0;
   for (const BoundaryCondition& bc : scene.boundary)
     if (bc.kind == BoundaryCondition::Kind::uniform_axial and ++constraints > 1)
@@ -853,7 +990,10 @@ Scene parse_scene(const std::string& text, const std::string& name,
                                      ? s["linear"].choice(NewtonOptions::linear_solvers())
                                      : "lu";
     if (s["line_search"].defined())
+    {
       scene.newton.line_search = s["line_search"].choice(NewtonOptions::line_searches());
+      scene.line_search_given = true;
+    }
     scene.newton.rtol = s["rtol"].positive(scene.newton.rtol);
     scene.newton.atol = s["atol"].positive(scene.newton.atol);
     scene.newton.max_iterations = s["max_iterations"].integer(25, 1, 1000);

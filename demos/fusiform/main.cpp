@@ -150,10 +150,10 @@ Settings parse(std::vector<std::string> args)
   s.element.degree = s.degree;
   if (s.anti_locking)
   {
-    if (s.cell != "hex" or s.degree != 1 or parse_model(s.model) != Model::ble)
-      throw InputError("--anti-locking: only for --model ble --cell hex --degree 1 (WKM, "
-                       "GIANT and COMBI are unstable with a one-point penalty; Q2 does not "
-                       "lock; BENCHMARKS.md)");
+    if (s.cell != "hex" or s.degree != 1 or !parse_model(s.model).law().anti_locking)
+      throw InputError("--anti-locking: only for --cell hex --degree 1 and a law whose file "
+                       "gives volumetric_stiff_part (BLE; WKM, GIANT and COMBI are unstable "
+                       "with a one-point penalty; Q2 does not lock; BENCHMARKS.md)");
     s.element.volumetric_quadrature_degree = 1;
   }
   try

@@ -52,7 +52,7 @@ std::vector<ParameterSet> parameter_sets(const std::vector<Model>& models,
                                          const std::vector<std::string>& assignments)
 {
   std::vector<ParameterSet> sets;
-  for (Model m : models)
+  for (const Model& m : models)
     sets.emplace_back(m);
   for (const std::string& a : assignments)
   {
@@ -96,7 +96,7 @@ int main(int argc, char** argv)
     std::vector<std::string> assignments;
     bool no_fe = false, quiet = false;
     CubeOptions fe;
-    app.add_option("--model", model_list, "ble, wkm, giant, combi, a comma list, or all")
+    app.add_option("--model", model_list, "a law (ble, wkm, giant, combi, svk, ...), a comma list, or all (the paper's four)")
         ->capture_default_str();
     app.add_option("--case", case_list,
                    "UTCAF, UTCTF, SAF, PSAF, PSTF, PSTIF, a comma list, or all")
@@ -120,7 +120,7 @@ int main(int argc, char** argv)
     if (!parse_command_line(app, std::move(args)))
       return 0;
 
-    const auto models = parse_list<Model>(model_list, all_models(), parse_model);
+    const auto models = parse_list<Model>(model_list, paper_models(), parse_model);
     const auto cases = parse_list<LoadCase>(case_list, all_load_cases(), parse_load_case);
     const auto states = state_list == "both"
                             ? std::vector<MuscleState>{MuscleState::active, MuscleState::passive}

@@ -1,4 +1,4 @@
-"""omega_a at a material point for the models whose activation comes from a C++ kernel.
+"""omega_a at a material point for the laws whose activation comes from a C++ kernel.
 
 The quadrature-point kernel (cpp/material/activation_kernels.cpp) solves for omega_a at
 the current fibre stretch lambda0 and writes, per quadrature point, lambda0,
@@ -9,13 +9,6 @@ the current iterate while the rest of the model stays in UFL.
 """
 
 TAYLOR_COEFFICIENTS = ("omega_a_lambda", "omega_a", "domega_a", "d2omega_a")
-
-# highest derivative of omega_a each model's tangent needs
-TAYLOR_ORDER = {
-    "wkm": 1,    # stress holds omega_a fixed; the tangent needs omega_a'
-    "giant": 2,  # stress contains omega_a' (the S_2 term); the tangent needs omega_a''
-}
-
 
 def taylor_omega(stretch, coefficients, order):
     d = stretch - coefficients["omega_a_lambda"]

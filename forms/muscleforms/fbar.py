@@ -33,14 +33,12 @@ from ufl import (Coefficient, Constant, FiniteElement, Identity, MixedElement, T
                  TrialFunction, VectorElement, as_vector, derivative, det, dx, grad, inner,
                  variable)
 
-from .activation import TAYLOR_COEFFICIENTS, TAYLOR_ORDER
 from .kinematics import fibre_cauchy_stress, von_mises_stress
-from .variants import ACTIVE_MODELS, CELLS, _constants, _Names, _stress_and_energy
+from .variants import CELLS, _Names, activation_inputs, constants, stress_and_energy
 
-# F-bar exists for Q1 hexahedra: Q2 does not lock, and on tetrahedra a centre value is
-# the whole P1 field.
+# F-bar exists for Q1 hexahedra (every law): Q2 does not lock, and on tetrahedra a centre
+# value is the whole P1 field.
 FBAR_ELEMENTS = {("hex", 1)}
-FBAR_MODELS = ("ble", "wkm", "giant", "combi", "ble_passive", "ehret_passive")
 
 
 def fbar_displacement_gradient(H, J0):
@@ -61,7 +59,7 @@ def _centre_measure():
     return dx(metadata={"quadrature_degree": 1})
 
 
-def build_fbar_variant(model, cell, degree, qdeg):
+def build_fbar_variant(law, active, cell, degree, qdeg):
     if (cell, degree) not in FBAR_ELEMENTS:
         raise ValueError(f"F-bar is for Q1 hexahedra, not {cell} degree {degree}")
     ucell = getattr(ufl, CELLS[cell])
@@ -76,22 +74,14 @@ def build_fbar_variant(model, cell, degree, qdeg):
     state = names.name(Coefficient(W), "fbar_state")
     u_s, J0_s = ufl.split(state)
     fibre = names.name(Coefficient(VectorElement("DG", ucell, 0)), "fibre")
-    p = _constants(ucell, model, names)
-    level = None
-    if model in ACTIVE_MODELS:
-        scale = names.name(Coefficient(Q0), "activation_scale")
-        time_factor = names.name(Constant(ucell), "time_factor")
-        level = time_factor * scale
-    taylor = None
-    if model in TAYLOR_ORDER:
-        Q = FiniteElement("Quadrature", ucell, qdeg, quad_scheme="default")
-        taylor = {c: names.name(Coefficient(Q), c)
-                  for c in TAYLOR_COEFFICIENTS[:TAYLOR_ORDER[model] + 2]}
+    p = constants(ucell, law, names)
+    level, taylor = activation_inputs(
+        law, active, ucell, names, FiniteElement("Quadrature", ucell, qdeg, quad_scheme="default"))
     measure = dx(metadata={"quadrature_degree": qdeg})
 
     # the mixed element on (u, J0)
     H_bar = fbar_displacement_gradient(grad(u_s), J0_s)
-    P, _, _, _, _ = _stress_and_energy(model, lambda: variable(H_bar), fibre, p, level, taylor)
+    P, _, _, _, _ = stress_and_energy(law, lambda: variable(H_bar), fibre, p, level, taylor)
     test, trial = TestFunction(W), TrialFunction(W)
     residual = inner(P, derivative(H_bar, state, test)) * measure
     names.export(residual, "fbar_residual")
@@ -108,9 +98,7 @@ def build_fbar_variant(model, cell, degree, qdeg):
 
     # carriers: every coefficient and constant the mixed kernels read
     data = sum((f[i] for f in (u, fibre) for i in range(3)), 1.0 + J0_field + pressure)
-    for c in ([scale] if level is not None else []) + list((taylor or {}).values()):
-        data = data + c
-    for c in list(p.values()) + ([time_factor] if level is not None else []):
+    for c in list((taylor or {}).values()) + list(p.values()) + ([level] if level is not None else []):
         data = data + c
     names.export(data * inner(u, v) * measure, "residual")
     names.export(data * inner(du, v) * measure, "jacobian")
@@ -118,9 +106,9 @@ def build_fbar_variant(model, cell, degree, qdeg):
 
     points, _ = create_quadrature(CELLS[cell], qdeg, "default")
     H_post = fbar_displacement_gradient(grad(u), J0_field)
-    P_post, _, kin, _, _ = _stress_and_energy(model, lambda: variable(H_post), fibre, p, level,
+    P_post, _, kin, _, _ = stress_and_energy(law, lambda: variable(H_post), fibre, p, level,
                                               taylor)
-    if model in TAYLOR_ORDER:
+    if taylor is not None:
         names.export((kin.fibre_stretch, points), "fibre_stretch")
     post = as_vector([kin.fibre_stretch, fibre_cauchy_stress(kin, P_post),
                       von_mises_stress(kin, P_post), J_u])

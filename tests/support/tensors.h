@@ -27,16 +27,16 @@ inline double det(const Matrix3& F)
 /// Within `distance` of a switch of a piecewise definition in the fibre
 /// stretch (finite differences across a kink measure the kink, not the model):
 /// lambda = 1 (passive fibre switch), BLE's 0.6 and 1.4 lambda_opt and
-/// lambda_star, the Ehret models' lambda_min.
+/// lambda_star, the Ehret models' lambda_min (by the parameters a law has).
 inline bool near_switch(const MaterialPointModel& m, const MaterialPoint& x, double distance)
 {
   const ParameterSet& p = m.parameters();
   const double l = m.fibre_stretch(x);
   std::vector<double> switches = {1.0};
-  if (p.model() == Model::ble)
+  if (p.has("lambda_star")) // Blemker's fibre: active and passive pieces
     switches.insert(switches.end(),
                     {0.6 * p["lambda_opt"], 1.4 * p["lambda_opt"], p["lambda_star"]});
-  else
+  if (p.has("lambda_min")) // the Ehret models' force-stretch relation
     switches.push_back(p["lambda_min"]);
   for (double s : switches)
     if (std::abs(l - s) < distance)

@@ -1,0 +1,44 @@
+#include "constraint.h"
+
+#include <petscvec.h>
+
+namespace muscle
+{
+
+Vec DisplacementConstraint::create_reduced_vector() const
+{
+  Vec x;
+  MatCreateVecs(T(), &x, nullptr);
+  return x;
+}
+
+void DisplacementConstraint::prolong(Vec x, dolfinx::la::Vector<double>& u) const
+{
+  PetscInt rows, columns;
+  MatGetLocalSize(T(), &rows, &columns);
+  MPI_Comm comm;
+  PetscObjectGetComm(reinterpret_cast<PetscObject>(T()), &comm);
+  Vec full;
+  VecCreateMPIWithArray(comm, 1, rows, PETSC_DETERMINE, u.mutable_array().data(), &full);
+  MatMult(T(), x, full);
+  VecDestroy(&full);
+  u.scatter_fwd();
+}
+
+void DisplacementConstraint::copy_free_dofs(const dolfinx::la::Vector<double>& u,
+                                            PetscScalar* x) const
+{
+  const std::span<const double> a = u.array();
+  for (std::size_t i = 0; i < _reduced_index.size(); ++i)
+    if (_reduced_index[i] >= 0)
+      x[_reduced_index[i]] = a[i];
+}
+
+std::int64_t DisplacementConstraint::reduced_size() const
+{
+  PetscInt rows, columns;
+  MatGetSize(T(), &rows, &columns);
+  return columns;
+}
+
+} // namespace muscle

@@ -1,0 +1,43 @@
+#pragma once
+
+#include <cstdint>
+#include <dolfinx/la/Vector.h>
+#include <petscmat.h>
+#include <vector>
+
+namespace muscle
+{
+
+/// A linear constraint on the displacement, enforced exactly by elimination:
+/// u = T x with x the reduced unknowns, the Newton system T^T J T.  Implemented
+/// by the uniform-axial constraint (uniform_constraint.h) and the tie of
+/// non-matching meshes (tie_constraint.h).
+class DisplacementConstraint
+{
+public:
+  virtual ~DisplacementConstraint() = default;
+
+  /// Prolongation full <- reduced (rows: owned full dofs).
+  virtual Mat T() const = 0;
+
+  /// x from u: each reduced unknown's value in u (for a u that satisfies the
+  /// constraint, T x = u); also the restriction of the rigid-body modes.
+  virtual void restrict_to(const dolfinx::la::Vector<double>& u, Vec x) const = 0;
+
+  /// A new reduced vector (caller destroys it).
+  Vec create_reduced_vector() const;
+
+  /// u = T x (owned part), then ghost update.
+  void prolong(Vec x, dolfinx::la::Vector<double>& u) const;
+
+  /// Number of reduced unknowns over all ranks.
+  std::int64_t reduced_size() const;
+
+protected:
+  /// x[reduced_index[i]] = u[i] for the owned dofs that are reduced unknowns.
+  void copy_free_dofs(const dolfinx::la::Vector<double>& u, PetscScalar* x) const;
+
+  std::vector<std::int32_t> _reduced_index; ///< owned unrolled dof -> local reduced or -1
+};
+
+} // namespace muscle

@@ -1,0 +1,383 @@
+#include "contact.h"
+
+#include "../common/errors.h"
+#include "contact_kernel.h"
+
+#include <algorithm>
+#include <cmath>
+#include <dolfinx/common/IndexMap.h>
+#include <dolfinx/common/MPI.h>
+#include <dolfinx/fem/DofMap.h>
+#include <dolfinx/mesh/Mesh.h>
+#include <numeric>
+#include <petscvec.h>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+namespace
+{
+double dot(const Point& a, const Point& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Point sub(const Point& a, const Point& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+Point cross(const Point& a, const Point& b)
+{
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+/// a1 x a2 at the facet's centre (tensor order / triangle order).
+Point facet_normal(const SurfaceFacet& f)
+{
+  if (f.n == 4)
+    return cross(sub(f.x[1], f.x[0]), sub(f.x[2], f.x[0])); // d/dxi x d/deta at a corner
+  return cross(sub(f.x[1], f.x[0]), sub(f.x[2], f.x[0]));
+}
+
+Point centre(const SurfaceFacet& f)
+{
+  Point c{};
+  for (int i = 0; i < f.n; ++i)
+    for (int k = 0; k < 3; ++k)
+      c[k] += f.x[i][k] / f.n;
+  return c;
+}
+
+template <typename T>
+std::vector<T> gather_all(MPI_Comm comm, const std::vector<T>& local)
+{
+  int size;
+  MPI_Comm_size(comm, &size);
+  int count = local.size();
+  std::vector<int> counts(size), offsets(size + 1, 0);
+  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
+  std::partial_sum(counts.begin(), counts.end(), offsets.begin() + 1);
+  std::vector<T> all(offsets.back());
+  MPI_Allgatherv(local.data(), count, dolfinx::MPI::mpi_type<T>(), all.data(), counts.data(),
+                 offsets.data(), dolfinx::MPI::mpi_type<T>(), comm);
+  return all;
+}
+} // namespace
+
+std::vector<ContactPair::Facet>
+ContactPair::surface_facets(const std::vector<std::int32_t>& facets) const
+{
+  const fem::FunctionSpace& V = *_u->function_space();
+  auto mesh = V.mesh();
+  const int tdim = mesh->topology().dim();
+  auto& topology = const_cast<mesh::Topology&>(mesh->topology());
+  topology.create_connectivity(tdim - 1, tdim);
+  topology.create_connectivity(tdim, tdim - 1);
+  auto f_to_c = topology.connectivity(tdim - 1, tdim);
+  auto c_to_f = topology.connectivity(tdim, tdim - 1);
+  const std::int32_t owned = topology.index_map(tdim - 1)->size_local();
+  const fem::DofMap& dofmap = *V.dofmap();
+  const fem::ElementDofLayout& layout = dofmap.element_dof_layout();
+  const std::vector<double> X = V.tabulate_dof_coordinates(false);
+  std::vector<Facet> out;
+  for (std::int32_t f : facets)
+  {
+    if (f >= owned)
+      continue;
+    const std::int32_t c = f_to_c->links(f)[0];
+    auto cf = c_to_f->links(c);
+    const int local = std::distance(cf.begin(), std::find(cf.begin(), cf.end(), f));
+    const std::vector<int>& closure = layout.entity_closure_dofs(tdim - 1, local);
+    if (closure.size() > 4)
+      throw InputError(_settings.name + ": contact needs elements of degree 1 (element.degree: 1)");
+    auto cell_dofs = dofmap.cell_dofs(c);
+    Facet facet;
+    facet.reference.n = closure.size();
+    for (int k = 0; k < facet.reference.n; ++k)
+    {
+      const std::int32_t b = cell_dofs[closure[k]];
+      facet.block[k] = b;
+      facet.reference.node[k] = b; // local for now: tensor_order keeps x, node together
+      facet.reference.x[k] = {X[3 * b], X[3 * b + 1], X[3 * b + 2]};
+    }
+    tensor_order(facet.reference);
+    for (int k = 0; k < facet.reference.n; ++k)
+    {
+      facet.block[k] = static_cast<std::int32_t>(facet.reference.node[k]);
+      dofmap.index_map->local_to_global(std::span<const std::int32_t>(&facet.block[k], 1),
+                                        std::span<std::int64_t>(&facet.reference.node[k], 1));
+    }
+    // outward: away from the centre of the facet's cell
+    Point cell_centre{};
+    for (std::int32_t b : cell_dofs)
+      for (int k = 0; k < 3; ++k)
+        cell_centre[k] += X[3 * b + k] / cell_dofs.size();
+    facet.orientation
+        = dot(facet_normal(facet.reference), sub(centre(facet.reference), cell_centre)) > 0 ? 1
+                                                                                            : -1;
+    out.push_back(facet);
+  }
+  return out;
+}
+
+ContactPair::ContactPair(std::shared_ptr<const fem::Function<double>> u, Settings settings,
+                         const std::vector<std::int32_t>& fixed)
+    : _u(std::move(u)), _settings(std::move(settings))
+{
+  MPI_Comm comm = _u->function_space()->mesh()->comm();
+  _slave = surface_facets(_settings.slave);
+  _master = surface_facets(_settings.master);
+  std::int64_t counts[2] = {std::int64_t(_slave.size()), std::int64_t(_master.size())};
+  MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_INT64_T, MPI_SUM, comm);
+  if (counts[0] == 0 or counts[1] == 0)
+    throw InputError(_settings.name + ": the " + (counts[0] == 0 ? "slave" : "master")
+                     + " surface has no boundary facets");
+
+  // 3 x 3 Gauss points per quadrilateral, the same collapsed onto triangles
+  const double g[3] = {0.5 - std::sqrt(0.15), 0.5, 0.5 + std::sqrt(0.15)};
+  const double w[3] = {5.0 / 18, 8.0 / 18, 5.0 / 18};
+  for (std::size_t e = 0; e < _slave.size(); ++e)
+  {
+    const SurfaceFacet& f = _slave[e].reference;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+      {
+        double xi = g[i], eta = g[j], weight = w[i] * w[j];
+        if (f.n == 3)
+        {
+          eta = g[j] * (1 - g[i]);
+          weight *= 1 - g[i];
+        }
+        const std::array<double, 4> N
+            = f.n == 4 ? std::array<double, 4>{(1 - xi) * (1 - eta), xi * (1 - eta),
+                                               (1 - xi) * eta, xi * eta}
+                       : std::array<double, 4>{1 - xi - eta, xi, eta, 0};
+        std::array<double, 4> d1, d2, d12;
+        facet_derivatives(f, N, d1, d2, d12);
+        Point a{}, b{};
+        for (int k = 0; k < f.n; ++k)
+          for (int c = 0; c < 3; ++c)
+          {
+            a[c] += d1[k] * f.x[k][c];
+            b[c] += d2[k] * f.x[k][c];
+          }
+        const Point n = cross(a, b);
+        _points.push_back({e, N, std::sqrt(dot(n, n)) * weight});
+      }
+  }
+
+  auto x = _u->x();
+  _fixed.assign(x->array().size(), 0);
+  for (std::int32_t d : fixed)
+    _fixed[d] = 1;
+
+  // do the surfaces face each other anywhere?  (reference configuration)
+  const std::vector<Master> master = gather_master();
+  int faces = 0;
+  for (const Facet& s : _slave)
+  {
+    const Point c = centre(s.reference);
+    double best = std::numeric_limits<double>::infinity();
+    const Master* nearest = nullptr;
+    Point closest{};
+    for (const Master& m : master)
+      if (const auto [d, N] = closest_point(m.current, c); d < best)
+      {
+        best = d;
+        nearest = &m;
+        closest = {};
+        for (int k = 0; k < m.current.n; ++k)
+          for (int j = 0; j < 3; ++j)
+            closest[j] += N[k] * m.current.x[k][j];
+      }
+    if (!nearest)
+      continue;
+    // opposite normals, and the master on the slave's outer side (or touching)
+    const Point ns = facet_normal(s.reference);
+    const double scale = std::sqrt(dot(ns, ns));
+    if (dot(ns, facet_normal(nearest->current)) * s.orientation * nearest->orientation < 0
+        and dot(sub(closest, c), ns) * s.orientation > -1e-6 * scale)
+      faces = 1;
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &faces, 1, MPI_INT, MPI_MAX, comm);
+  if (!faces)
+    throw InputError(_settings.name + ": the surfaces never face each other (every slave facet's "
+                     "outward normal points the same way as the nearest master facet's): "
+                     "contact needs two surfaces of bodies that can touch");
+}
+
+SurfaceFacet ContactPair::current(const Facet& f) const
+{
+  SurfaceFacet c = f.reference;
+  const std::span<const double> u = _u->x()->array();
+  for (int k = 0; k < c.n; ++k)
+    for (int d = 0; d < 3; ++d)
+      c.x[k][d] += u[3 * f.block[k] + d];
+  return c;
+}
+
+std::vector<ContactPair::Master> ContactPair::gather_master() const
+{
+  // n, orientation, then per node x, y, z, global node, fixed flags (bits)
+  std::vector<double> packed;
+  for (const Facet& f : _master)
+  {
+    const SurfaceFacet c = current(f);
+    packed.insert(packed.end(), {double(c.n), double(f.orientation)});
+    for (int k = 0; k < c.n; ++k)
+    {
+      const std::int32_t b = f.block[k];
+      const double bits = _fixed[3 * b] + 2 * _fixed[3 * b + 1] + 4 * _fixed[3 * b + 2];
+      packed.insert(packed.end(), {c.x[k][0], c.x[k][1], c.x[k][2], double(c.node[k]), bits});
+    }
+  }
+  const std::vector<double> all
+      = gather_all(_u->function_space()->mesh()->comm(), packed);
+  std::vector<Master> out;
+  for (std::size_t i = 0; i < all.size();)
+  {
+    Master m;
+    m.current.n = static_cast<int>(all[i]);
+    m.orientation = static_cast<int>(all[i + 1]);
+    i += 2;
+    for (int k = 0; k < m.current.n; ++k, i += 5)
+    {
+      m.current.x[k] = {all[i], all[i + 1], all[i + 2]};
+      m.current.node[k] = static_cast<std::int64_t>(all[i + 3]);
+      const int bits = static_cast<int>(all[i + 4]);
+      for (int d = 0; d < 3; ++d)
+        m.fixed[3 * k + d] = bits & (1 << d);
+    }
+    out.push_back(m);
+  }
+  return out;
+}
+
+template <typename F>
+void ContactPair::for_each_contact(F&& f)
+{
+  const std::vector<Master> master = gather_master();
+  std::vector<std::pair<Point, double>> spheres;
+  for (const Master& m : master)
+  {
+    const Point c = centre(m.current);
+    double r = 0;
+    for (int k = 0; k < m.current.n; ++k)
+      r = std::max(r, std::sqrt(dot(sub(m.current.x[k], c), sub(m.current.x[k], c))));
+    spheres.emplace_back(c, r);
+  }
+  std::vector<SurfaceFacet> slave(_slave.size());
+  for (std::size_t e = 0; e < _slave.size(); ++e)
+    slave[e] = current(_slave[e]);
+  const double reach = _settings.search_distance;
+  for (const QuadraturePoint& q : _points)
+  {
+    const SurfaceFacet& s = slave[q.facet];
+    Point xs{};
+    for (int i = 0; i < s.n; ++i)
+      for (int k = 0; k < 3; ++k)
+        xs[k] += q.N[i] * s.x[i][k];
+    double best = std::numeric_limits<double>::infinity();
+    std::size_t nearest = master.size();
+    for (std::size_t m = 0; m < master.size(); ++m)
+    {
+      const Point d = sub(spheres[m].first, xs);
+      if (std::sqrt(dot(d, d)) > spheres[m].second + reach)
+        continue;
+      if (const double dist = closest_point(master[m].current, xs).first; dist < best)
+      {
+        best = dist;
+        nearest = m;
+      }
+    }
+    if (nearest == master.size() or best > reach)
+      continue;
+    const Master& m = master[nearest];
+    const ContactPoint p
+        = contact_point(s, q.N, m.current, m.orientation, _settings.penalty, q.weight);
+    // only a slave surface that faces the master: not the far side of a thin body
+    // g = 0 counts: bodies that just touch keep the contact stiffness (a block
+    // resting on another is held in place from the first iteration)
+    if (p.gap > 0 or dot(facet_normal(s), p.normal) * _slave[q.facet].orientation > 0)
+      continue;
+    // a point beyond the master's edge projects onto the edge, not along the normal
+    if (p.distance * p.distance - p.gap * p.gap > 1e-12 * reach * reach)
+      continue;
+    f(q, _slave[q.facet], m, p);
+  }
+}
+
+void ContactPair::add_residual(Vec F)
+{
+  std::int64_t active = 0;
+  for_each_contact(
+      [&](const QuadraturePoint&, const Facet& s, const Master& m, const ContactPoint& p)
+      {
+        ++active;
+        std::vector<PetscInt> rows;
+        for (int i = 0; i < s.reference.n; ++i)
+          for (int d = 0; d < 3; ++d)
+            rows.push_back(_fixed[3 * s.block[i] + d] ? -1 : 3 * s.reference.node[i] + d);
+        for (int j = 0; j < m.current.n; ++j)
+          for (int d = 0; d < 3; ++d)
+            rows.push_back(m.fixed[3 * j + d] ? -1 : 3 * m.current.node[j] + d);
+        VecSetValues(F, rows.size(), rows.data(), p.residual.data(), ADD_VALUES);
+      });
+  const std::int64_t previous = _active;
+  MPI_Allreduce(&active, &_active, 1, MPI_INT64_T, MPI_SUM,
+                _u->function_space()->mesh()->comm());
+  _previous_active = previous;
+  _changed = _evaluations++ == 0 ? 0 : std::abs(_active - previous);
+}
+
+void ContactPair::add_jacobian(Mat A)
+{
+  for_each_contact(
+      [&](const QuadraturePoint&, const Facet& s, const Master& m, const ContactPoint& p)
+      {
+        std::vector<PetscInt> dofs;
+        for (int i = 0; i < s.reference.n; ++i)
+          for (int d = 0; d < 3; ++d)
+            dofs.push_back(_fixed[3 * s.block[i] + d] ? -1 : 3 * s.reference.node[i] + d);
+        for (int j = 0; j < m.current.n; ++j)
+          for (int d = 0; d < 3; ++d)
+            dofs.push_back(m.fixed[3 * j + d] ? -1 : 3 * m.current.node[j] + d);
+        MatSetValues(A, dofs.size(), dofs.data(), dofs.size(), dofs.data(), p.tangent.data(),
+                     ADD_VALUES);
+      });
+}
+
+std::string ContactPair::diagnosis() const
+{
+  if (_changed == 0)
+    return "";
+  return _settings.name + ": the contact set was still changing (slave points in contact: "
+         + std::to_string(_previous_active) + ", then " + std::to_string(_active)
+         + " at the last evaluation)";
+}
+
+ContactPair::Measures ContactPair::measure()
+{
+  Measures m;
+  // the pressure of a facet: the mean over its points in contact (a single
+  // point's value carries the penalty's point-to-point scatter)
+  std::vector<double> force(_slave.size(), 0), area(_slave.size(), 0);
+  for_each_contact(
+      [&](const QuadraturePoint& q, const Facet&, const Master&, const ContactPoint& p)
+      {
+        const double pressure = -_settings.penalty * p.gap;
+        for (int k = 0; k < 3; ++k)
+          m.force[k] += pressure * q.weight * p.normal[k];
+        m.area += q.weight;
+        force[q.facet] += pressure * q.weight;
+        area[q.facet] += q.weight;
+        m.max_penetration = std::max(m.max_penetration, -p.gap);
+        ++m.points;
+      });
+  for (std::size_t e = 0; e < _slave.size(); ++e)
+    if (area[e] > 0)
+      m.max_pressure = std::max(m.max_pressure, force[e] / area[e]);
+  MPI_Comm comm = _u->function_space()->mesh()->comm();
+  MPI_Allreduce(MPI_IN_PLACE, m.force.data(), 3, MPI_DOUBLE, MPI_SUM, comm);
+  MPI_Allreduce(MPI_IN_PLACE, &m.area, 1, MPI_DOUBLE, MPI_SUM, comm);
+  MPI_Allreduce(MPI_IN_PLACE, &m.max_pressure, 1, MPI_DOUBLE, MPI_MAX, comm);
+  MPI_Allreduce(MPI_IN_PLACE, &m.max_penetration, 1, MPI_DOUBLE, MPI_MAX, comm);
+  MPI_Allreduce(MPI_IN_PLACE, &m.points, 1, MPI_INT64_T, MPI_SUM, comm);
+  return m;
+}
+
+} // namespace muscle

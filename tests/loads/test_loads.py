@@ -1,0 +1,143 @@
+"""External loads against closed forms.
+
+compression.yaml: a Neo-Hooke box in uniaxial stress, its top loaded by a follower
+pressure p (Cauchy stress sigma33 = -p on the current area) or by a dead traction p
+(nominal stress P33 = -p per reference area); lateral stretch mu, axial lambda from
+
+    P11 = mu_L (mu - 1/mu) + lambda_L ln(J) / mu = 0
+    P33 = mu_L (lam - 1/lam) + lambda_L ln(J) / lam = -p mu^2 (follower) or -p (dead)
+
+with J = mu^2 lam.  The two differ by the area change mu^2 (6 % at p = 200 kPa), so a
+pressure that does not follow the surface fails the follower case.
+hanging_bar.yaml: weight rho g V at the support (equilibrium, exact) and the bottom's
+sag rho g L^2 / (2 E) (one-dimensional for nu = 0).
+floating.yaml: pressure on both ends, held only by fix_point: compression's stretches.
+"""
+import math
+import os
+import subprocess
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+E, NU = 1000.0, 0.3
+MU_L, LAMBDA_L = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
+
+
+def bisect(f, lo, hi, tol=1e-14):
+    flo = f(lo)
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        fm = f(mid)
+        if (fm < 0) == (flo < 0):
+            lo, flo = mid, fm
+        else:
+            hi = mid
+        if hi - lo < tol:
+            break
+    return 0.5 * (lo + hi)
+
+
+def nominal(lam, mu):
+    """(P11, P33) of compressible Neo-Hooke at F = diag(mu, mu, lam)."""
+    lnJ = math.log(mu * mu * lam)
+    return (MU_L * (mu - 1 / mu) + LAMBDA_L * lnJ / mu,
+            MU_L * (lam - 1 / lam) + LAMBDA_L * lnJ / lam)
+
+
+def uniaxial_stretches(p, follower):
+    def lateral(lam):
+        return bisect(lambda mu: nominal(lam, mu)[0], 0.5, 2.0)
+
+    def axial_balance(lam):
+        mu = lateral(lam)
+        return nominal(lam, mu)[1] + p * (mu * mu if follower else 1.0)
+
+    lam = bisect(axial_balance, 0.3, 1.0)
+    return lam, lateral(lam)
+
+
+def run(build, scene, out, sets=()):
+    command = [os.path.join(build, "muscle-run"), os.path.join(HERE, scene), "--out", out]
+    for s in sets:
+        command += ["--set", s]
+    return subprocess.run(command, capture_output=True, text=True, timeout=600)
+
+
+def series(out):
+    with open(os.path.join(out, "series.csv")) as f:
+        lines = [line.strip().split(",") for line in f if line.strip()]
+    return [dict(zip(lines[0], map(float, row))) for row in lines[1:]]
+
+
+LOADS = {
+    "follower pressure": [],
+    "dead traction": ["loads[0]={traction: zmax, vector: [0, 0, -1], "
+                      "value: {ramp: {start: 0, duration: 1, value: 200}}}"],
+}
+ELEMENTS = {"F-bar": [], "plain Q1": ["element.fbar=false"], "Q2": ["element.degree=2"]}
+
+
+@pytest.mark.parametrize("element", ELEMENTS)
+@pytest.mark.parametrize("load", LOADS)
+def test_pressure_compression(build, scratch, record, load, element):
+    result = run(build, "compression.yaml", scratch, LOADS[load] + ELEMENTS[element])
+    assert result.returncode == 0, result.stdout + result.stderr
+    rows = series(scratch)
+    assert len(rows) == 4
+    worst = 0.0
+    for r in rows:
+        p = 200 * r["t"]
+        lam, mu = uniaxial_stretches(p, follower=load == "follower pressure")
+        worst = max(worst, abs(1 + r["u_top"] / 10 - lam), abs(1 + r["u_side"] / 10 - mu))
+    record(f"compression, {load}, {element}: |stretch - closed form| = {worst:.1e} "
+           f"(lambda = {lam:.4f}, mu = {mu:.4f} at p = 200 kPa)")
+    assert worst < 1e-7
+    # the support carries the load: the current top area x p (follower) or 100 mm^2 x p
+    area = 100 * mu * mu if load == "follower pressure" else 100.0
+    assert abs(abs(rows[-1]["reaction"]) - 200 * area) < 1e-6 * 200 * area
+
+
+def test_pressure_floating_box_held_by_a_point(build, scratch):
+    result = run(build, "floating.yaml", scratch)
+    assert result.returncode == 0, result.stdout + result.stderr
+    r = series(scratch)[-1]
+    lam, mu = uniaxial_stretches(200, follower=True)
+    assert abs(1 + (r["u_top"] - r["u_bottom"]) / 10 - lam) < 1e-7
+    assert abs(1 + r["u_side"] / 10 - mu) < 1e-7
+    assert abs(r["u_top"] + r["u_bottom"]) < 1e-9  # symmetric about the fixed point
+
+
+@pytest.mark.parametrize("element", ["Q2", "F-bar"])
+def test_gravity_hanging_bar(build, scratch, record, element):
+    sets = [] if element == "Q2" else ["element.degree=1"]
+    result = run(build, "hanging_bar.yaml", scratch, sets)
+    assert result.returncode == 0, result.stdout + result.stderr
+    r = series(scratch)[-1]
+    rho, g, L, A, E_bar = 1.0e-6, 9810.0, 100.0, 100.0, 1000.0
+    weight = rho * g * L * A
+    sag = rho * g * L * L / (2 * E_bar)
+    record(f"hanging bar, {element}: support {r['support']:.9f} mN (weight {weight:.9f}), "
+           f"bottom {r['u_bottom']:.6f} mm (closed form {-sag:.6f})")
+    assert abs(abs(r["support"]) - weight) < 1e-8 * weight
+    assert abs(r["u_bottom"] + sag) < 0.01 * sag
+
+
+@pytest.mark.parametrize("change, message", [
+    (["loads[0].pressure=nowhere"], "nowhere"),
+    (["parts[0].density=-1"],
+     "density"),
+    (["loads[0]={gravity: [0, 0]}"], "[x, y, z]"),
+    (["boundary[2]={fix_point: [50, 50, 50]}"], "outside the body"),
+], ids=["unknown surface", "negative density", "short vector", "point outside"])
+def test_broken_loads(build, scratch, change, message):
+    result = run(build, "compression.yaml", scratch, change)
+    assert result.returncode == 2, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+def test_gravity_needs_density(build, scratch):
+    result = run(build, "compression.yaml", scratch, ["loads[0]={gravity: [0, 0, -9810]}"])
+    assert result.returncode == 2
+    assert "density" in result.stderr and "parts[0]" in result.stderr, result.stderr
