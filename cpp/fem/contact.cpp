@@ -1,6 +1,7 @@
 #include "contact.h"
 
 #include "../common/errors.h"
+#include "gather.h"
 #include "contact_kernel.h"
 
 #include <algorithm>
@@ -16,111 +17,13 @@ using namespace dolfinx;
 
 namespace muscle
 {
-namespace
-{
-double dot(const Point& a, const Point& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Point sub(const Point& a, const Point& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Point cross(const Point& a, const Point& b)
-{
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-
-/// a1 x a2 at the facet's centre (tensor order / triangle order).
-Point facet_normal(const SurfaceFacet& f)
-{
-  if (f.n == 4)
-    return cross(sub(f.x[1], f.x[0]), sub(f.x[2], f.x[0])); // d/dxi x d/deta at a corner
-  return cross(sub(f.x[1], f.x[0]), sub(f.x[2], f.x[0]));
-}
-
-Point centre(const SurfaceFacet& f)
-{
-  Point c{};
-  for (int i = 0; i < f.n; ++i)
-    for (int k = 0; k < 3; ++k)
-      c[k] += f.x[i][k] / f.n;
-  return c;
-}
-
-template <typename T>
-std::vector<T> gather_all(MPI_Comm comm, const std::vector<T>& local)
-{
-  int size;
-  MPI_Comm_size(comm, &size);
-  int count = local.size();
-  std::vector<int> counts(size), offsets(size + 1, 0);
-  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
-  std::partial_sum(counts.begin(), counts.end(), offsets.begin() + 1);
-  std::vector<T> all(offsets.back());
-  MPI_Allgatherv(local.data(), count, dolfinx::MPI::mpi_type<T>(), all.data(), counts.data(),
-                 offsets.data(), dolfinx::MPI::mpi_type<T>(), comm);
-  return all;
-}
-} // namespace
-
-std::vector<ContactPair::Facet>
-ContactPair::surface_facets(const std::vector<std::int32_t>& facets) const
-{
-  const fem::FunctionSpace& V = *_u->function_space();
-  auto mesh = V.mesh();
-  const int tdim = mesh->topology().dim();
-  auto& topology = const_cast<mesh::Topology&>(mesh->topology());
-  topology.create_connectivity(tdim - 1, tdim);
-  topology.create_connectivity(tdim, tdim - 1);
-  auto f_to_c = topology.connectivity(tdim - 1, tdim);
-  auto c_to_f = topology.connectivity(tdim, tdim - 1);
-  const std::int32_t owned = topology.index_map(tdim - 1)->size_local();
-  const fem::DofMap& dofmap = *V.dofmap();
-  const fem::ElementDofLayout& layout = dofmap.element_dof_layout();
-  const std::vector<double> X = V.tabulate_dof_coordinates(false);
-  std::vector<Facet> out;
-  for (std::int32_t f : facets)
-  {
-    if (f >= owned)
-      continue;
-    const std::int32_t c = f_to_c->links(f)[0];
-    auto cf = c_to_f->links(c);
-    const int local = std::distance(cf.begin(), std::find(cf.begin(), cf.end(), f));
-    const std::vector<int>& closure = layout.entity_closure_dofs(tdim - 1, local);
-    if (closure.size() > 4)
-      throw InputError(_settings.name + ": contact needs elements of degree 1 (element.degree: 1)");
-    auto cell_dofs = dofmap.cell_dofs(c);
-    Facet facet;
-    facet.reference.n = closure.size();
-    for (int k = 0; k < facet.reference.n; ++k)
-    {
-      const std::int32_t b = cell_dofs[closure[k]];
-      facet.block[k] = b;
-      facet.reference.node[k] = b; // local for now: tensor_order keeps x, node together
-      facet.reference.x[k] = {X[3 * b], X[3 * b + 1], X[3 * b + 2]};
-    }
-    tensor_order(facet.reference);
-    for (int k = 0; k < facet.reference.n; ++k)
-    {
-      facet.block[k] = static_cast<std::int32_t>(facet.reference.node[k]);
-      dofmap.index_map->local_to_global(std::span<const std::int32_t>(&facet.block[k], 1),
-                                        std::span<std::int64_t>(&facet.reference.node[k], 1));
-    }
-    // outward: away from the centre of the facet's cell
-    Point cell_centre{};
-    for (std::int32_t b : cell_dofs)
-      for (int k = 0; k < 3; ++k)
-        cell_centre[k] += X[3 * b + k] / cell_dofs.size();
-    facet.orientation
-        = dot(facet_normal(facet.reference), sub(centre(facet.reference), cell_centre)) > 0 ? 1
-                                                                                            : -1;
-    out.push_back(facet);
-  }
-  return out;
-}
-
 ContactPair::ContactPair(std::shared_ptr<const fem::Function<double>> u, Settings settings,
                          const std::vector<std::int32_t>& fixed)
     : _u(std::move(u)), _settings(std::move(settings))
 {
   MPI_Comm comm = _u->function_space()->mesh()->comm();
-  _slave = surface_facets(_settings.slave);
-  _master = surface_facets(_settings.master);
+  _slave = owned_surface_facets(*_u->function_space(), _settings.slave, _settings.name);
+  _master = owned_surface_facets(*_u->function_space(), _settings.master, _settings.name);
   std::int64_t counts[2] = {std::int64_t(_slave.size()), std::int64_t(_master.size())};
   MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_INT64_T, MPI_SUM, comm);
   if (counts[0] == 0 or counts[1] == 0)
@@ -170,7 +73,7 @@ ContactPair::ContactPair(std::shared_ptr<const fem::Function<double>> u, Setting
   int faces = 0;
   for (const Facet& s : _slave)
   {
-    const Point c = centre(s.reference);
+    const Point c = facet_centre(s.reference);
     double best = std::numeric_limits<double>::infinity();
     const Master* nearest = nullptr;
     Point closest{};
@@ -254,7 +157,7 @@ void ContactPair::for_each_contact(F&& f)
   std::vector<std::pair<Point, double>> spheres;
   for (const Master& m : master)
   {
-    const Point c = centre(m.current);
+    const Point c = facet_centre(m.current);
     double r = 0;
     for (int k = 0; k < m.current.n; ++k)
       r = std::max(r, std::sqrt(dot(sub(m.current.x[k], c), sub(m.current.x[k], c))));

@@ -1,7 +1,7 @@
 #pragma once
 
 #include "nonlinear_solver.h"
-#include "surface_geometry.h"
+#include "surface_facets.h"
 
 #include <dolfinx/fem/Function.h>
 #include <memory>
@@ -54,12 +54,7 @@ public:
   const Settings& settings() const { return _settings; }
 
 private:
-  struct Facet
-  {
-    SurfaceFacet reference;                 ///< reference coordinates, global nodes
-    std::array<std::int32_t, 4> block{};    ///< local node (block) indices
-    int orientation = 1;                    ///< +-1: a1 x a2 outward
-  };
+  using Facet = LocalSurfaceFacet;
   struct QuadraturePoint
   {
     std::size_t facet;
@@ -74,7 +69,6 @@ private:
     std::array<bool, 12> fixed;
   };
 
-  std::vector<Facet> surface_facets(const std::vector<std::int32_t>& facets) const;
   SurfaceFacet current(const Facet& f) const;
   std::vector<Master> gather_master() const;
   /// Visit the slave points in contact: f(point, slave facet (current), master, result)

@@ -4,15 +4,6 @@
 
 namespace muscle
 {
-namespace
-{
-double dot(const Point& a, const Point& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Point cross(const Point& a, const Point& b)
-{
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-} // namespace
-
 void facet_derivatives(const SurfaceFacet& f, const std::array<double, 4>& N,
                        std::array<double, 4>& d1, std::array<double, 4>& d2,
                        std::array<double, 4>& d12)

@@ -8,12 +8,6 @@ namespace muscle
 {
 namespace
 {
-Point sub(const Point& a, const Point& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double dot(const Point& a, const Point& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Point cross(const Point& a, const Point& b)
-{
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
 Point scaled(const Point& a, double s) { return {s * a[0], s * a[1], s * a[2]}; }
 Point normalised(const Point& a) { return scaled(a, 1 / std::sqrt(dot(a, a))); }
 
@@ -124,6 +118,20 @@ Eigen::Matrix4d dual_basis(const SurfaceFacet& f)
   return D * M.inverse();
 }
 } // namespace
+
+Point facet_centre(const SurfaceFacet& f)
+{
+  Point c{};
+  for (int i = 0; i < f.n; ++i)
+    for (int k = 0; k < 3; ++k)
+      c[k] += f.x[i][k] / f.n;
+  return c;
+}
+
+Point facet_normal(const SurfaceFacet& f)
+{
+  return cross(sub(f.x[1], f.x[0]), sub(f.x[2], f.x[0]));
+}
 
 void tensor_order(SurfaceFacet& f)
 {

@@ -20,6 +20,19 @@ struct SurfaceFacet
   std::array<std::int64_t, 4> node;
 };
 
+inline double dot(const Point& a, const Point& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline Point sub(const Point& a, const Point& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+inline Point cross(const Point& a, const Point& b)
+{
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+/// The mean of a facet's nodes.
+Point facet_centre(const SurfaceFacet& f);
+/// a1 x a2 at node 0 (tensor order), or the triangle's edge cross product: the
+/// facet's normal up to length and sign.
+Point facet_normal(const SurfaceFacet& f);
+
 /// Puts a quadrilateral's nodes in tensor order (the node farthest from node 0
 /// last); triangles are left as they are.
 void tensor_order(SurfaceFacet& f);

@@ -1,7 +1,8 @@
 #include "tie_constraint.h"
 
 #include "../common/errors.h"
-#include "surface_geometry.h"
+#include "gather.h"
+#include "surface_facets.h"
 
 #include <algorithm>
 #include <cmath>
@@ -25,61 +26,14 @@ namespace muscle
 namespace
 {
 
-/// Every rank's `local` entries, concatenated in rank order.
-template <typename T>
-std::vector<T> gather_all(MPI_Comm comm, const std::vector<T>& local)
-{
-  int size;
-  MPI_Comm_size(comm, &size);
-  int count = local.size();
-  std::vector<int> counts(size), offsets(size + 1, 0);
-  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
-  std::partial_sum(counts.begin(), counts.end(), offsets.begin() + 1);
-  std::vector<T> all(offsets.back());
-  MPI_Allgatherv(local.data(), count, dolfinx::MPI::mpi_type<T>(), all.data(), counts.data(),
-                 offsets.data(), dolfinx::MPI::mpi_type<T>(), comm);
-  return all;
-}
-
 /// This rank's owned facets of a surface, in reference coordinates.
 std::vector<SurfaceFacet> owned_facets(const fem::FunctionSpace& V,
                                        const std::vector<std::int32_t>& facets,
                                        const std::string& name)
 {
-  auto mesh = V.mesh();
-  const int tdim = mesh->topology().dim();
-  auto f_to_c = mesh->topology().connectivity(tdim - 1, tdim);
-  auto c_to_f = mesh->topology().connectivity(tdim, tdim - 1);
-  if (!f_to_c or !c_to_f)
-    throw std::logic_error("tie: facet-cell connectivity missing");
-  const std::int32_t owned = mesh->topology().index_map(tdim - 1)->size_local();
-  const fem::DofMap& dofmap = *V.dofmap();
-  const fem::ElementDofLayout& layout = dofmap.element_dof_layout();
-  const std::vector<double> coords = V.tabulate_dof_coordinates(false);
   std::vector<SurfaceFacet> out;
-  for (std::int32_t f : facets)
-  {
-    if (f >= owned)
-      continue;
-    const std::int32_t c = f_to_c->links(f)[0];
-    auto cf = c_to_f->links(c);
-    const int local = std::distance(cf.begin(), std::find(cf.begin(), cf.end(), f));
-    const std::vector<int>& closure = layout.entity_closure_dofs(tdim - 1, local);
-    if (closure.size() > 4)
-      throw InputError(name + ": a tie needs elements of degree 1 (element.degree: 1)");
-    auto cell_dofs = dofmap.cell_dofs(c);
-    SurfaceFacet facet;
-    facet.n = closure.size();
-    for (int k = 0; k < facet.n; ++k)
-    {
-      const std::int32_t b = cell_dofs[closure[k]];
-      facet.x[k] = {coords[3 * b], coords[3 * b + 1], coords[3 * b + 2]};
-      dofmap.index_map->local_to_global(std::span<const std::int32_t>(&b, 1),
-                                        std::span<std::int64_t>(&facet.node[k], 1));
-    }
-    tensor_order(facet);
-    out.push_back(facet);
-  }
+  for (const LocalSurfaceFacet& f : owned_surface_facets(V, facets, name))
+    out.push_back(f.reference);
   return out;
 }
 

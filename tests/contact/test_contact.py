@@ -12,27 +12,15 @@ tilt of the deformed interface).
 import json
 import math
 import os
-import subprocess
+import sys
 
 import pytest
 
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "support"))
+from checks import muscle_run as run, series_rows as rows  # noqa: E402
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..", "..")
-
-
-def run(build, scene, out, sets=(), ranks=1):
-    command = [os.path.join(build, "muscle-run"), scene, "--out", out]
-    for s in sets:
-        command += ["--set", s]
-    if ranks > 1:
-        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + command
-    return subprocess.run(command, capture_output=True, text=True, timeout=1200)
-
-
-def rows(out):
-    with open(os.path.join(out, "series.csv")) as f:
-        lines = [line.strip().split(",") for line in f if line.strip()]
-    return [dict(zip(lines[0], map(float, r))) for r in lines[1:]]
 
 
 def hertz(F, R, E1, nu1, E2, nu2):

@@ -15,9 +15,12 @@ floating.yaml: pressure on both ends, held only by fix_point: compression's stre
 """
 import math
 import os
-import subprocess
+import sys
 
 import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "support"))
+from checks import muscle_run, series_rows  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 E, NU = 1000.0, 0.3
@@ -58,16 +61,7 @@ def uniaxial_stretches(p, follower):
 
 
 def run(build, scene, out, sets=()):
-    command = [os.path.join(build, "muscle-run"), os.path.join(HERE, scene), "--out", out]
-    for s in sets:
-        command += ["--set", s]
-    return subprocess.run(command, capture_output=True, text=True, timeout=600)
-
-
-def series(out):
-    with open(os.path.join(out, "series.csv")) as f:
-        lines = [line.strip().split(",") for line in f if line.strip()]
-    return [dict(zip(lines[0], map(float, row))) for row in lines[1:]]
+    return muscle_run(build, os.path.join(HERE, scene), out, sets)
 
 
 LOADS = {
@@ -83,7 +77,7 @@ ELEMENTS = {"F-bar": [], "plain Q1": ["element.fbar=false"], "Q2": ["element.deg
 def test_pressure_compression(build, scratch, record, load, element):
     result = run(build, "compression.yaml", scratch, LOADS[load] + ELEMENTS[element])
     assert result.returncode == 0, result.stdout + result.stderr
-    rows = series(scratch)
+    rows = series_rows(scratch)
     assert len(rows) == 4
     worst = 0.0
     for r in rows:
@@ -101,7 +95,7 @@ def test_pressure_compression(build, scratch, record, load, element):
 def test_pressure_floating_box_held_by_a_point(build, scratch):
     result = run(build, "floating.yaml", scratch)
     assert result.returncode == 0, result.stdout + result.stderr
-    r = series(scratch)[-1]
+    r = series_rows(scratch)[-1]
     lam, mu = uniaxial_stretches(200, follower=True)
     assert abs(1 + (r["u_top"] - r["u_bottom"]) / 10 - lam) < 1e-7
     assert abs(1 + r["u_side"] / 10 - mu) < 1e-7
@@ -113,7 +107,7 @@ def test_gravity_hanging_bar(build, scratch, record, element):
     sets = [] if element == "Q2" else ["element.degree=1"]
     result = run(build, "hanging_bar.yaml", scratch, sets)
     assert result.returncode == 0, result.stdout + result.stderr
-    r = series(scratch)[-1]
+    r = series_rows(scratch)[-1]
     rho, g, L, A, E_bar = 1.0e-6, 9810.0, 100.0, 100.0, 1000.0
     weight = rho * g * L * A
     sag = rho * g * L * L / (2 * E_bar)

@@ -2,6 +2,7 @@
 (nlohmann writes NaN and inf as null)."""
 import json
 import math
+import os
 
 
 def read_json(path):
@@ -25,3 +26,21 @@ def finite_json(value):
 def all_finite(rows):
     """Every value of every row of a series.csv (csv.DictReader rows) is a finite number."""
     return all(math.isfinite(float(v)) for r in rows for v in r.values())
+
+
+def muscle_run(build, scene, out, sets=(), ranks=1, timeout=1200):
+    """build/muscle-run SCENE --out OUT --set S ... (under mpirun for ranks > 1)."""
+    import subprocess
+    command = [os.path.join(build, "muscle-run"), scene, "--out", out]
+    for s in sets:
+        command += ["--set", s]
+    if ranks > 1:
+        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + command
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+
+
+def series_rows(out):
+    """The rows of OUT/series.csv as dicts of floats."""
+    with open(os.path.join(out, "series.csv")) as f:
+        lines = [line.strip().split(",") for line in f if line.strip()]
+    return [dict(zip(lines[0], map(float, row))) for row in lines[1:]]

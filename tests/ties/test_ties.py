@@ -8,9 +8,12 @@ interface.  The same on 2 ranks.
 """
 import math
 import os
-import subprocess
+import sys
 
 import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "support"))
+from checks import muscle_run, series_rows  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 E, NU = 1000.0, 0.3
@@ -35,19 +38,11 @@ def nominal_stress(lam):
 
 
 def run(build, out, sets=(), ranks=1):
-    command = [os.path.join(build, "muscle-run"), os.path.join(HERE, "tied_blocks.yaml"),
-               "--out", out]
-    for s in sets:
-        command += ["--set", s]
-    if ranks > 1:
-        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + command
-    return subprocess.run(command, capture_output=True, text=True, timeout=600)
+    return muscle_run(build, os.path.join(HERE, "tied_blocks.yaml"), out, sets, ranks)
 
 
 def last_row(out):
-    with open(os.path.join(out, "series.csv")) as f:
-        lines = [line.strip().split(",") for line in f if line.strip()]
-    return dict(zip(lines[0], map(float, lines[-1])))
+    return series_rows(out)[-1]
 
 
 @pytest.mark.parametrize("ranks", [1, 2])
