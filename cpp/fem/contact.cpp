@@ -204,6 +204,18 @@ void ContactPair::for_each_contact(F&& f)
   }
 }
 
+std::vector<PetscInt> ContactPair::global_dofs(const Facet& s, const Master& m) const
+{
+  std::vector<PetscInt> dofs;
+  for (int i = 0; i < s.reference.n; ++i)
+    for (int d = 0; d < 3; ++d)
+      dofs.push_back(_fixed[3 * s.block[i] + d] ? -1 : 3 * s.reference.node[i] + d);
+  for (int j = 0; j < m.current.n; ++j)
+    for (int d = 0; d < 3; ++d)
+      dofs.push_back(m.fixed[3 * j + d] ? -1 : 3 * m.current.node[j] + d);
+  return dofs;
+}
+
 void ContactPair::add_residual(Vec F)
 {
   std::int64_t active = 0;
@@ -211,13 +223,7 @@ void ContactPair::add_residual(Vec F)
       [&](const QuadraturePoint&, const Facet& s, const Master& m, const ContactPoint& p)
       {
         ++active;
-        std::vector<PetscInt> rows;
-        for (int i = 0; i < s.reference.n; ++i)
-          for (int d = 0; d < 3; ++d)
-            rows.push_back(_fixed[3 * s.block[i] + d] ? -1 : 3 * s.reference.node[i] + d);
-        for (int j = 0; j < m.current.n; ++j)
-          for (int d = 0; d < 3; ++d)
-            rows.push_back(m.fixed[3 * j + d] ? -1 : 3 * m.current.node[j] + d);
+        const std::vector<PetscInt> rows = global_dofs(s, m);
         VecSetValues(F, rows.size(), rows.data(), p.residual.data(), ADD_VALUES);
       });
   const std::int64_t previous = _active;
@@ -232,13 +238,7 @@ void ContactPair::add_jacobian(Mat A)
   for_each_contact(
       [&](const QuadraturePoint&, const Facet& s, const Master& m, const ContactPoint& p)
       {
-        std::vector<PetscInt> dofs;
-        for (int i = 0; i < s.reference.n; ++i)
-          for (int d = 0; d < 3; ++d)
-            dofs.push_back(_fixed[3 * s.block[i] + d] ? -1 : 3 * s.reference.node[i] + d);
-        for (int j = 0; j < m.current.n; ++j)
-          for (int d = 0; d < 3; ++d)
-            dofs.push_back(m.fixed[3 * j + d] ? -1 : 3 * m.current.node[j] + d);
+        const std::vector<PetscInt> dofs = global_dofs(s, m);
         MatSetValues(A, dofs.size(), dofs.data(), dofs.size(), dofs.data(), p.tangent.data(),
                      ADD_VALUES);
       });

@@ -70,6 +70,8 @@ private:
   };
 
   SurfaceFacet current(const Facet& f) const;
+  /// Global dofs of a contact point's [slave | master] nodes; -1 where fixed.
+  std::vector<PetscInt> global_dofs(const Facet& s, const Master& m) const;
   std::vector<Master> gather_master() const;
   /// Visit the slave points in contact: f(point, slave facet (current), master, result)
   template <typename F>
