@@ -2,7 +2,10 @@
 // the penalty energy eps/2 g^2 w, the tangent the gradient of the residual, on
 // warped quadrilateral and triangular master facets with the slave point
 // penetrating, so that Newton converges quadratically once the contact set
-// settles.
+// settles.  With averaged corner normals (ContactPair's default) the force acts
+// along their interpolation: the tangent is then checked against the residual's
+// finite differences with the corner normals held, and the force against its
+// closed form.
 #include "support/finite_differences.h"
 
 #include <fem/contact_kernel.h>
@@ -148,3 +151,83 @@ TEST(ContactKernel, SeparatedPointsCarryNothing)
   EXPECT_GT(p.gap, 0);
   EXPECT_TRUE(p.residual.empty());
 }
+
+class SmoothNormalKernel : public ::testing::TestWithParam<std::pair<int, int>>
+{
+};
+
+TEST_P(SmoothNormalKernel, TangentIsTheResidualsDerivative)
+{
+  const auto [master_nodes, slave_nodes] = GetParam();
+  std::mt19937 rng(7 + master_nodes + 10 * slave_nodes);
+  std::uniform_real_distribution<double> tilt(-0.3, 0.3);
+  const double eps = 1e3, w = 0.25, h = 1e-6;
+  int checked = 0;
+  for (int trial = 0; trial < 40; ++trial)
+  {
+    const Configuration c = random_configuration(rng, master_nodes, slave_nodes);
+    const int o = upward(c.master);
+    // corner normals tilted away from +z, as on a curved surface
+    std::array<Point, 4> corners{};
+    for (int j = 0; j < master_nodes; ++j)
+    {
+      Point v = {tilt(rng), tilt(rng), 1};
+      const double l = std::sqrt(dot(v, v));
+      for (double& x : v)
+        x /= l;
+      corners[j] = v;
+    }
+    const ContactPoint p = contact_point(c.slave, c.Ns, c.master, o, eps, w, &corners);
+    const ContactPoint exact = contact_point(c.slave, c.Ns, c.master, o, eps, w);
+    if (!(p.gap < -1e-3) or p.distance > 0.5)
+      continue;
+    bool inside = true;
+    for (int j = 0; j < master_nodes; ++j)
+      inside = inside and p.master_shape[j] > 0.02;
+    if (!inside)
+      continue;
+    ++checked;
+    // the gap is the facet's; the force eps w g along nu = sum N_j n_j / |...|
+    EXPECT_DOUBLE_EQ(p.gap, exact.gap);
+    Point nu{};
+    for (int j = 0; j < master_nodes; ++j)
+      for (int k = 0; k < 3; ++k)
+        nu[k] += p.master_shape[j] * corners[j][k];
+    const double l = std::sqrt(dot(nu, nu));
+    for (int k = 0; k < 3; ++k)
+    {
+      double on_slave = 0;
+      for (int i = 0; i < slave_nodes; ++i)
+        on_slave += p.residual[3 * i + k];
+      EXPECT_NEAR(on_slave, eps * w * p.gap * nu[k] / l, 1e-12 * eps);
+    }
+    const int size = 3 * (master_nodes + slave_nodes);
+    double K_scale = 0;
+    for (double v : p.tangent)
+      K_scale = std::max(K_scale, std::abs(v));
+    for (int s = 0; s < size; ++s)
+    {
+      const std::vector<double> dR = central_vector(
+          [&](double d)
+          {
+            const Configuration m = moved(c, s, d);
+            return contact_point(m.slave, c.Ns, m.master, o, eps, w, &corners).residual;
+          },
+          h);
+      for (int r = 0; r < size; ++r)
+        EXPECT_NEAR(p.tangent[r * size + s], dR[r], 1e-5 * K_scale)
+            << "K[" << r << "," << s << "]";
+    }
+  }
+  EXPECT_GT(checked, 10);
+}
+
+INSTANTIATE_TEST_SUITE_P(Facets, SmoothNormalKernel,
+                         ::testing::Values(std::pair{4, 4}, std::pair{3, 4}, std::pair{4, 3},
+                                           std::pair{3, 3}),
+                         [](const auto& info)
+                         {
+                           return std::string(info.param.first == 4 ? "quad" : "tri")
+                                  + "_master_" + (info.param.second == 4 ? "quad" : "tri")
+                                  + "_slave";
+                         });

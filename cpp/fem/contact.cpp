@@ -10,13 +10,35 @@
 #include <dolfinx/common/MPI.h>
 #include <dolfinx/fem/DofMap.h>
 #include <dolfinx/mesh/Mesh.h>
+#include <nanoflann.hpp>
 #include <numeric>
+#include <unordered_map>
+#include <cstdio>
+#include <cstdlib>
 #include <petscvec.h>
 
 using namespace dolfinx;
 
 namespace muscle
 {
+namespace
+{
+/// Master facet centres as nanoflann reads them.
+struct MasterCentres
+{
+  std::vector<Point> points;
+  std::size_t kdtree_get_point_count() const { return points.size(); }
+  double kdtree_get_pt(std::size_t i, std::size_t d) const { return points[i][d]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const
+  {
+    return false;
+  }
+};
+using CentreTree = nanoflann::KDTreeSingleIndexAdaptor<
+    nanoflann::L2_Simple_Adaptor<double, MasterCentres>, MasterCentres, 3>;
+} // namespace
+
 ContactPair::ContactPair(std::shared_ptr<const fem::Function<double>> u, Settings settings,
                          const std::vector<std::int32_t>& fixed)
     : _u(std::move(u)), _settings(std::move(settings))
@@ -147,26 +169,66 @@ std::vector<ContactPair::Master> ContactPair::gather_master() const
     }
     out.push_back(m);
   }
+
+  // corner normals: facets around each node within the feature angle
+  const double feature = std::cos(45.0 * M_PI / 180);
+  std::vector<Point> normal(out.size());
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> around;
+  for (std::size_t f = 0; f < out.size(); ++f)
+  {
+    normal[f] = facet_normal(out[f].current); // length: area (x 2 for triangles)
+    for (double& v : normal[f])
+      v *= out[f].orientation;
+    for (int k = 0; k < out[f].current.n; ++k)
+      around[out[f].current.node[k]].push_back(f);
+  }
+  auto unit = [](Point v)
+  {
+    const double l = std::sqrt(dot(v, v));
+    for (double& x : v)
+      x /= l;
+    return v;
+  };
+  for (std::size_t f = 0; f < out.size(); ++f)
+  {
+    const Point nf = unit(normal[f]);
+    for (int k = 0; k < out[f].current.n; ++k)
+    {
+      Point sum{};
+      for (std::size_t g : around[out[f].current.node[k]])
+        if (dot(unit(normal[g]), nf) >= feature)
+          for (int c = 0; c < 3; ++c)
+            sum[c] += normal[g][c];
+      out[f].corner_normal[k] = unit(sum);
+    }
+  }
   return out;
 }
 
 template <typename F>
-void ContactPair::for_each_contact(F&& f)
+void ContactPair::for_each_contact(F&& f, bool with_open)
 {
   const std::vector<Master> master = gather_master();
-  std::vector<std::pair<Point, double>> spheres;
+  // bounding spheres of the master facets, and a k-d tree over their centres
+  MasterCentres centres;
+  std::vector<double> radius;
+  double largest = 0;
   for (const Master& m : master)
   {
     const Point c = facet_centre(m.current);
     double r = 0;
     for (int k = 0; k < m.current.n; ++k)
       r = std::max(r, std::sqrt(dot(sub(m.current.x[k], c), sub(m.current.x[k], c))));
-    spheres.emplace_back(c, r);
+    centres.points.push_back(c);
+    radius.push_back(r);
+    largest = std::max(largest, r);
   }
+  const CentreTree tree(3, centres);
   std::vector<SurfaceFacet> slave(_slave.size());
   for (std::size_t e = 0; e < _slave.size(); ++e)
     slave[e] = current(_slave[e]);
   const double reach = _settings.search_distance;
+  std::vector<std::pair<unsigned int, double>> found; // nanoflann 1.4: unsigned indices
   for (const QuadraturePoint& q : _points)
   {
     const SurfaceFacet& s = slave[q.facet];
@@ -176,10 +238,17 @@ void ContactPair::for_each_contact(F&& f)
         xs[k] += q.N[i] * s.x[i][k];
     double best = std::numeric_limits<double>::infinity();
     std::size_t nearest = master.size();
-    for (std::size_t m = 0; m < master.size(); ++m)
+    // candidates: facets whose centre lies within the largest radius + reach
+    // (squared distances), visited in facet order so that ties go as before
+    found.clear();
+    const double search = largest + reach;
+    tree.radiusSearch(xs.data(), search * search * (1 + 1e-12), found,
+                      nanoflann::SearchParams(32, 0, false));
+    std::sort(found.begin(), found.end());
+    for (const auto& [m, d2] : found)
     {
-      const Point d = sub(spheres[m].first, xs);
-      if (std::sqrt(dot(d, d)) > spheres[m].second + reach)
+      const Point d = sub(centres.points[m], xs);
+      if (std::sqrt(dot(d, d)) > radius[m] + reach)
         continue;
       if (const double dist = closest_point(master[m].current, xs).first; dist < best)
       {
@@ -191,11 +260,13 @@ void ContactPair::for_each_contact(F&& f)
       continue;
     const Master& m = master[nearest];
     const ContactPoint p
-        = contact_point(s, q.N, m.current, m.orientation, _settings.penalty, q.weight);
+        = contact_point(s, q.N, m.current, m.orientation, _settings.penalty, q.weight,
+                        _settings.smooth_normals ? &m.corner_normal : nullptr);
     // only a slave surface that faces the master: not the far side of a thin body
     // g = 0 counts: bodies that just touch keep the contact stiffness (a block
     // resting on another is held in place from the first iteration)
-    if (p.gap > 0 or dot(facet_normal(s), p.normal) * _slave[q.facet].orientation > 0)
+    if ((p.gap > 0 and !with_open)
+        or dot(facet_normal(s), p.normal) * _slave[q.facet].orientation > 0)
       continue;
     // a point beyond the master's edge projects onto the edge, not along the normal
     if (p.distance * p.distance - p.gap * p.gap > 1e-12 * reach * reach)
@@ -281,6 +352,72 @@ ContactPair::Measures ContactPair::measure()
   MPI_Allreduce(MPI_IN_PLACE, &m.max_penetration, 1, MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(MPI_IN_PLACE, &m.points, 1, MPI_INT64_T, MPI_SUM, comm);
   return m;
+}
+
+void ContactPair::add_nodal_sums(std::span<double> weight, std::span<double> gap,
+                                 std::span<double> pressure)
+{
+  for_each_contact(
+      [&](const QuadraturePoint& q, const Facet& s, const Master&, const ContactPoint& p)
+      {
+        for (int i = 0; i < s.reference.n; ++i)
+        {
+          const double w = q.weight * q.N[i];
+          weight[s.block[i]] += w;
+          gap[s.block[i]] += w * p.gap;
+          pressure[s.block[i]] += w * _settings.penalty * std::max(-p.gap, 0.0);
+        }
+      },
+      true);
+}
+
+ContactFields::ContactFields(const fem::FunctionSpace& V)
+{
+  auto [space, parent] = V.sub({0})->collapse();
+  _space = std::make_shared<fem::FunctionSpace>(std::move(space));
+  const int bs = V.dofmap()->index_map_bs();
+  for (std::int32_t d : parent)
+    _node.push_back(d / bs);
+  const auto map = V.dofmap()->index_map;
+  _blocks = map->size_local() + map->num_ghosts();
+  _w = std::make_shared<la::Vector<double>>(_space->dofmap()->index_map,
+                                            _space->dofmap()->index_map_bs());
+  pressure = std::make_shared<fem::Function<double>>(_space);
+  pressure->name = "contact_pressure";
+  gap = std::make_shared<fem::Function<double>>(_space);
+  gap->name = "contact_gap";
+}
+
+void ContactFields::update(const std::vector<std::shared_ptr<ContactPair>>& pairs)
+{
+  const std::size_t blocks = _blocks;
+  // sums over the points of every pair (a node between two pairs gets their mean)
+  std::vector<double> weight(blocks, 0), g(blocks, 0), p(blocks, 0);
+  double reach = 0;
+  for (const auto& pair : pairs)
+  {
+    pair->add_nodal_sums(weight, g, p);
+    reach = std::max(reach, pair->settings().search_distance);
+  }
+  // node sums from each rank's facets; ghosts add onto their owners
+  la::Vector<double>& W = *_w, &G = *gap->x(), &P = *pressure->x();
+  std::span<double> w_ = W.mutable_array(), g_ = G.mutable_array(), p_ = P.mutable_array();
+  for (std::size_t i = 0; i < _node.size(); ++i)
+  {
+    w_[i] = weight[_node[i]];
+    g_[i] = g[_node[i]];
+    p_[i] = p[_node[i]];
+  }
+  W.scatter_rev(std::plus<double>());
+  G.scatter_rev(std::plus<double>());
+  P.scatter_rev(std::plus<double>());
+  for (std::size_t i = 0; i < _node.size(); ++i)
+  {
+    g_[i] = w_[i] > 0 ? g_[i] / w_[i] : reach;
+    p_[i] = w_[i] > 0 ? p_[i] / w_[i] : 0;
+  }
+  G.scatter_fwd();
+  P.scatter_fwd();
 }
 
 } // namespace muscle

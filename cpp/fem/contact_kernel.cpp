@@ -24,7 +24,7 @@ void facet_derivatives(const SurfaceFacet& f, const std::array<double, 4>& N,
 
 ContactPoint contact_point(const SurfaceFacet& slave, const std::array<double, 4>& Ns,
                            const SurfaceFacet& master, int orientation, double eps,
-                           double weight)
+                           double weight, const std::array<Point, 4>* corner_normals)
 {
   ContactPoint c;
   Point xs{};
@@ -94,6 +94,53 @@ ContactPoint contact_point(const SurfaceFacet& slave, const std::array<double, 4
   c.residual.assign(size, 0);
   c.tangent.assign(size * size, 0);
   const double f = eps * weight;
+  if (corner_normals)
+  {
+    // nu = nu^ / |nu^|, nu^ = sum N_j nu_j; dnu/dxi_a = (I - nu nu) dnu^/dxi_a / |nu^|
+    Point nh{}, dh1{}, dh2{};
+    for (int j = 0; j < nm; ++j)
+      for (int k = 0; k < 3; ++k)
+      {
+        nh[k] += Nm[j] * (*corner_normals)[j][k];
+        dh1[k] += d1[j] * (*corner_normals)[j][k];
+        dh2[k] += d2[j] * (*corner_normals)[j][k];
+      }
+    const double nl = std::sqrt(dot(nh, nh));
+    Point nu, dnu1, dnu2;
+    for (int k = 0; k < 3; ++k)
+      nu[k] = nh[k] / nl;
+    const double p1 = dot(nu, dh1), p2 = dot(nu, dh2);
+    for (int k = 0; k < 3; ++k)
+    {
+      dnu1[k] = (dh1[k] - p1 * nu[k]) / nl;
+      dnu2[k] = (dh2[k] - p2 * nu[k]) / nl;
+    }
+    c.normal = nu;
+    // force direction on [slave | master] dofs and its derivative along dxi/du
+    std::vector<double> Fv(size), F1(size), F2(size);
+    for (int i = 0; i < ns; ++i)
+      for (int k = 0; k < 3; ++k)
+      {
+        Fv[3 * i + k] = Ns[i] * nu[k];
+        F1[3 * i + k] = Ns[i] * dnu1[k];
+        F2[3 * i + k] = Ns[i] * dnu2[k];
+      }
+    for (int j = 0; j < nm; ++j)
+      for (int k = 0; k < 3; ++k)
+      {
+        const int r = 3 * (ns + j) + k;
+        Fv[r] = -Nm[j] * nu[k];
+        F1[r] = -d1[j] * nu[k] - Nm[j] * dnu1[k];
+        F2[r] = -d2[j] * nu[k] - Nm[j] * dnu2[k];
+      }
+    for (int r = 0; r < size; ++r)
+    {
+      c.residual[r] = f * g * Fv[r];
+      for (int s = 0; s < size; ++s)
+        c.tangent[r * size + s] = f * (Fv[r] * Nv[s] + g * (F1[r] * D1[s] + F2[r] * D2[s]));
+    }
+    return c;
+  }
   for (int r = 0; r < size; ++r)
   {
     c.residual[r] = f * g * Nv[r];

@@ -30,9 +30,19 @@ struct ContactPoint
 /// point; `master`: the master facet (current), `orientation` +1 or -1 turning
 /// the facet's a1 x a2 outward; `eps` the penalty (kPa/mm), `weight` the
 /// point's reference area (mm^2).  Residual and tangent are filled when g <= 0.
+///
+/// `corner_normals` (optional): outward unit normals at the master facet's nodes,
+/// averaged over the neighbouring facets.  The force then acts along their
+/// interpolation nu(xi) (normalised) instead of the facet normal, while the gap
+/// stays the facet's.  On a faceted curved surface the facet normal jumps from
+/// facet to facet, and a sliding point comes to rest on a ridge where no
+/// equilibrium exists (Newton cycles); nu is continuous across the facets.  The
+/// residual is then no energy gradient; the tangent is its exact derivative with
+/// the corner normals held fixed (their motion with the neighbouring nodes, a
+/// term of order g / h, is left out).
 ContactPoint contact_point(const SurfaceFacet& slave, const std::array<double, 4>& Ns,
                            const SurfaceFacet& master, int orientation, double eps,
-                           double weight);
+                           double weight, const std::array<Point, 4>* corner_normals = nullptr);
 
 /// Shape-function derivatives of a facet at its point with shape functions N
 /// (bilinear quadrilaterals: (xi, eta) recovered from N; triangles constant).

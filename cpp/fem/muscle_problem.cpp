@@ -19,6 +19,8 @@ namespace muscle
 {
 namespace
 {
+/// entries per quadrature point of the "post" expression (PostFields)
+constexpr int post_size = 5;
 std::int32_t num_local_cells(const mesh::Mesh& mesh, bool with_ghosts)
 {
   auto map = mesh.topology().index_map(mesh.topology().dim());
@@ -381,17 +383,18 @@ MuscleProblem::PostFields MuscleProblem::post_fields() const
   update_centre_dilatation();
   const std::vector<std::int32_t>& cells = _owned_cells;
   const std::size_t nq = _quadrature_weights.size();
-  xt::xtensor<double, 2> values({cells.size(), 4 * nq});
+  xt::xtensor<double, 2> values({cells.size(), post_size * nq});
   _post_expression->eval(std::span<const std::int32_t>(cells), values);
 
   PostFields out;
-  const char* names[] = {"fibre_stretch", "fibre_cauchy_stress", "von_mises_stress", "J"};
-  std::shared_ptr<fem::Function<double>>* fields[]
-      = {&out.fibre_stretch, &out.fibre_stress, &out.von_mises, &out.J};
+  const char* names[post_size]
+      = {"fibre_stretch", "fibre_cauchy_stress", "von_mises_stress", "J", "von_mises_strain"};
+  std::shared_ptr<fem::Function<double>>* fields[post_size]
+      = {&out.fibre_stretch, &out.fibre_stress, &out.von_mises, &out.J, &out.von_mises_strain};
   const double weight_sum = std::accumulate(_quadrature_weights.begin(),
                                             _quadrature_weights.end(), 0.0);
   auto space = cell_space(1);
-  for (int k = 0; k < 4; ++k)
+  for (int k = 0; k < post_size; ++k)
   {
     *fields[k] = std::make_shared<fem::Function<double>>(space);
     (*fields[k])->name = names[k];
@@ -400,7 +403,7 @@ MuscleProblem::PostFields MuscleProblem::post_fields() const
     {
       double average = 0;
       for (std::size_t q = 0; q < nq; ++q)
-        average += _quadrature_weights[q] * values(c, 4 * q + k);
+        average += _quadrature_weights[q] * values(c, post_size * q + k);
       x[space->dofmap()->cell_dofs(cells[c])[0]] = average / weight_sum;
     }
     (*fields[k])->x()->scatter_fwd();
@@ -413,13 +416,13 @@ std::pair<double, std::int32_t> MuscleProblem::min_jacobian_determinant() const
   update_centre_dilatation();
   const std::vector<std::int32_t>& cells = _owned_cells;
   const std::size_t nq = _quadrature_weights.size();
-  xt::xtensor<double, 2> values({cells.size(), 4 * nq});
+  xt::xtensor<double, 2> values({cells.size(), post_size * nq});
   _post_expression->eval(std::span<const std::int32_t>(cells), values);
   std::pair<double, std::int32_t> worst{std::numeric_limits<double>::infinity(), -1};
   for (std::size_t c = 0; c < cells.size(); ++c)
     for (std::size_t q = 0; q < nq; ++q)
     {
-      const double J = values(c, 4 * q + 3);
+      const double J = values(c, post_size * q + 3);
       if (!(J >= worst.first)) // NaN counts as worst
         worst = {J, cells[c]};
     }

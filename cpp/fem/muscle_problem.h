@@ -143,12 +143,18 @@ public:
   const std::vector<std::int32_t>& cells() const { return _cells; }
 
   /// Cell averages (reference quadrature weights) of the fibre stretch,
-  /// Cauchy fibre stress sigma_m, von Mises stress and J, as DG0 functions
-  /// (zero outside the problem's cells).
+  /// Cauchy fibre stress sigma_m, von Mises stress, J and von Mises strain
+  /// (of the Green-Lagrange strain), as DG0 functions (zero outside the
+  /// problem's cells).
   struct PostFields
   {
     std::shared_ptr<dolfinx::fem::Function<double>> fibre_stretch, fibre_stress,
-        von_mises, J;
+        von_mises, J, von_mises_strain;
+    /// all of them, in the order above
+    std::array<std::shared_ptr<dolfinx::fem::Function<double>>, 5> all() const
+    {
+      return {fibre_stretch, fibre_stress, von_mises, J, von_mises_strain};
+    }
   };
   PostFields post_fields() const;
 

@@ -269,6 +269,8 @@ NonlinearSolver::~NonlinearSolver()
   MatDestroy(&_A);
   if (_A_red)
     MatDestroy(&_A_red);
+  if (_ptap)
+    MatDestroy(&_ptap);
   if (_near_null_space)
     MatNullSpaceDestroy(&_near_null_space);
   VecDestroy(&_x);
@@ -346,19 +348,31 @@ void NonlinearSolver::reduce(Mat J, bool first)
 {
   PetscObjectState state;
   MatGetNonzeroState(_A, &state);
+  // the state is a rank's own: one rank's new contact nonzeros must send every
+  // rank down the same (collective) branch
+  int changed = state != _reduced_state;
+  MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_MAX, _problem.mesh()->comm());
   if (first)
     MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
-  else if (state == _reduced_state)
-    MatPtAP(_A, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
-  else
+  else if (changed)
   {
-    // A gained nonzeros: a new product, copied into J (which the KSP holds)
-    Mat C;
-    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &C);
+    // A gained nonzeros (contact): a new product of our own, copied into J (which
+    // the KSP holds).  J's own product data describe the old pattern, so J is
+    // never recomputed in place again: a numeric PtAP on a stale symbolic
+    // product reads past its arrays (crashed on 2 ranks).
+    if (_ptap)
+      MatDestroy(&_ptap);
+    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_ptap);
     MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
-    MatCopy(C, J, DIFFERENT_NONZERO_PATTERN);
-    MatDestroy(&C);
+    MatCopy(_ptap, J, DIFFERENT_NONZERO_PATTERN);
   }
+  else if (_ptap)
+  {
+    MatPtAP(_A, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &_ptap);
+    MatCopy(_ptap, J, SAME_NONZERO_PATTERN);
+  }
+  else
+    MatPtAP(_A, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
   _reduced_state = state;
 }
 

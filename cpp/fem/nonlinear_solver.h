@@ -193,6 +193,7 @@ private:
   SNES _snes = nullptr;
   Mat _A = nullptr;       ///< full Jacobian
   Mat _A_red = nullptr;   ///< T^T A T when constrained
+  Mat _ptap = nullptr;    ///< T^T A T recomputed after A gained nonzeros, copied into _A_red
   MatNullSpace _near_null_space = nullptr; ///< rigid-body modes of the matrix GAMG sees
   Vec _x = nullptr;       ///< SNES iterate (a copy of u's owned part, or reduced)
   Vec _u_petsc = nullptr; ///< wraps u's owned part (unconstrained case)

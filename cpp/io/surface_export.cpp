@@ -12,9 +12,10 @@ using namespace dolfinx;
 namespace muscle
 {
 
-void export_deformed_surface(const fem::Function<double>& u,
-                             const fem::Function<double>& cell_value,
-                             const std::string& path)
+void export_deformed_surface(
+    const fem::Function<double>& u, const fem::Function<double>& cell_value,
+    const std::string& path,
+    const std::vector<std::shared_ptr<const fem::Function<double>>>& more)
 {
   auto mesh = u.function_space()->mesh();
   auto& topology = mesh->topology_mutable();
@@ -34,6 +35,7 @@ void export_deformed_surface(const fem::Function<double>& u,
 
   // flat local data: per facet nv vertices x 3 coordinates, plus a value
   std::vector<double> coords, facet_values;
+  std::vector<std::vector<double>> more_values(more.size());
   int nv = 0;
   for (std::int32_t f : mesh::exterior_facet_indices(topology))
   {
@@ -56,6 +58,22 @@ void export_deformed_surface(const fem::Function<double>& u,
         coords.push_back(x[3 * g + i] + uu[3 * d + i]);
     }
     facet_values.push_back(values[v_dofmap.cell_dofs(c)[0]]);
+    for (std::size_t m = 0; m < more.size(); ++m)
+    {
+      std::span<const double> a = more[m]->x()->array();
+      const auto dofs = more[m]->function_space()->dofmap()->cell_dofs(c);
+      double v = 0;
+      if (dofs.size() == 1)
+        v = a[dofs[0]];
+      else
+      {
+        for (std::int32_t w : order)
+          v += a[dofs[std::distance(cell_vertices.begin(),
+                                    std::find(cell_vertices.begin(), cell_vertices.end(), w))]];
+        v /= order.size();
+      }
+      more_values[m].push_back(v);
+    }
   }
 
   // gather on rank 0
@@ -83,6 +101,13 @@ void export_deformed_surface(const fem::Function<double>& u,
   MPI_Allreduce(&nv, &nv_max, 1, MPI_INT, MPI_MAX, comm);
   const std::vector<double> all_coords = gather(coords);
   const std::vector<double> all_values = gather(facet_values);
+  nlohmann::json fields = nlohmann::json::object();
+  for (std::size_t m = 0; m < more.size(); ++m)
+  {
+    const std::vector<double> all = gather(more_values[m]);
+    if (rank == 0)
+      fields[more[m]->name] = all;
+  }
   if (rank != 0)
     return;
   nlohmann::json facets = nlohmann::json::array();
@@ -99,7 +124,7 @@ void export_deformed_surface(const fem::Function<double>& u,
   std::ofstream out(path);
   if (!out)
     throw InputError("cannot write " + path);
-  out << nlohmann::json{{"facets", facets}, {"values", all_values}}.dump();
+  out << nlohmann::json{{"facets", facets}, {"values", all_values}, {"fields", fields}}.dump();
 }
 
 } // namespace muscle

@@ -495,11 +495,12 @@ void run_scene(const Scene& scene, const RunOptions& options)
           ContactPair::Settings{c.where.text(),
                                 tagged_facets(*gm.facet_tags, surface(c.slave, c.where)),
                                 tagged_facets(*gm.facet_tags, surface(c.master, c.where)), eps,
-                                size},
+                                size, c.smooth_normals},
           fixed));
       built_contacts.push_back({{"pair", c.slave + " on " + c.master},
                                 {"penalty", eps},
-                                {"penalty_default", !(c.penalty > 0)}});
+                                {"penalty_default", !(c.penalty > 0)},
+                                {"normals", c.smooth_normals ? "smooth" : "facet"}});
       if (!options.quiet and is_root())
         std::printf("contact[%zu] %s on %s: penalty %.6g kPa/mm%s\n", i, c.slave.c_str(),
                     c.master.c_str(), eps,
@@ -916,10 +917,9 @@ void run_scene(const Scene& scene, const RunOptions& options)
         for (std::size_t i = 0; i < x.size(); ++i)
           x[i] += y[i];
       };
-      add(sum.fibre_stretch, more.fibre_stretch);
-      add(sum.fibre_stress, more.fibre_stress);
-      add(sum.von_mises, more.von_mises);
-      add(sum.J, more.J);
+      const auto to = sum.all(), from = more.all();
+      for (std::size_t k = 0; k < to.size(); ++k)
+        add(to[k], from[k]);
     }
     return sum;
   };
@@ -951,14 +951,23 @@ void run_scene(const Scene& scene, const RunOptions& options)
     xdmf->write_mesh(*mesh);
     xdmf->write_function(*fibre, stepping.t_start);
   }
+  std::unique_ptr<ContactFields> contact_fields;
+  if (!contacts.empty())
+    contact_fields = std::make_unique<ContactFields>(*problem.u()->function_space());
   auto write_fields = [&](double t)
   {
     if (!xdmf)
       return;
     xdmf->write_function(*problem.u(), t);
     const MuscleProblem::PostFields post = body_post();
-    for (auto& f : {post.fibre_stretch, post.fibre_stress, post.von_mises, post.J})
+    for (const auto& f : post.all())
       xdmf->write_function(*f, t);
+    if (contact_fields)
+    {
+      contact_fields->update(contacts);
+      xdmf->write_function(*contact_fields->pressure, t);
+      xdmf->write_function(*contact_fields->gap, t);
+    }
   };
   if (!options.resume)
     write_fields(0.0);
@@ -1059,7 +1068,15 @@ void run_scene(const Scene& scene, const RunOptions& options)
   if (scene.output.surface)
   {
     const MuscleProblem::PostFields post = body_post();
-    export_deformed_surface(*problem.u(), *post.fibre_stretch, options.out + "/surface.json");
+    const auto fields = post.all();
+    std::vector<std::shared_ptr<const fem::Function<double>>> more(fields.begin(), fields.end());
+    if (contact_fields)
+    {
+      contact_fields->update(contacts);
+      more.insert(more.end(), {contact_fields->pressure, contact_fields->gap});
+    }
+    export_deformed_surface(*problem.u(), *post.fibre_stretch, options.out + "/surface.json",
+                            more);
   }
   if (is_root())
   {

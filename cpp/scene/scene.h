@@ -137,6 +137,7 @@ struct ContactSpec
 {
   std::string slave, master;
   double penalty = -1; ///< kPa/mm; < 0: 10 x the stiffest tangent / element size
+  bool smooth_normals = true; ///< force along averaged nodal normals (ContactPair)
   SceneLocation where;
 };
 

@@ -947,16 +947,18 @@ Scene parse_scene(const std::string& text, const std::string& name,
     for (std::size_t i = 0; i < contacts.size(); ++i)
     {
       const Entry c = contacts.at(i);
-      c.require_map({"surfaces", "penalty"});
+      c.require_map({"surfaces", "penalty", "normals"});
       const Entry s = c.required("surfaces");
       if (!s.is_sequence() or s.size() != 2)
         s.fail("expected [SLAVE, MASTER]: the slave surface's points are kept out of the "
                "master surface; found " + s.shown());
-      ContactSpec spec{s.at(0).text(), s.at(1).text(), -1, c.where()};
+      ContactSpec spec{s.at(0).text(), s.at(1).text(), -1, true, c.where()};
       if (spec.slave == spec.master)
         s.fail("a surface in contact with itself is not supported");
       if (c["penalty"].defined())
         spec.penalty = c["penalty"].positive(0);
+      if (c["normals"].defined())
+        spec.smooth_normals = c["normals"].choice({"smooth", "facet"}) == "smooth";
       scene.contacts.push_back(spec);
     }
   }

@@ -301,7 +301,7 @@ int main(int argc, char** argv)
         return;
       xdmf->write_function(*problem.u(), t);
       const MuscleProblem::PostFields post = problem.post_fields();
-      for (auto& f : {post.fibre_stretch, post.fibre_stress, post.von_mises, post.J})
+      for (const auto& f : post.all())
         xdmf->write_function(*f, t);
     };
     if (!s.quiet and is_root())

@@ -33,7 +33,7 @@ from ufl import (Coefficient, Constant, FiniteElement, Identity, MixedElement, T
                  TrialFunction, VectorElement, as_vector, derivative, det, dx, grad, inner,
                  variable)
 
-from .kinematics import fibre_cauchy_stress, von_mises_stress
+from .kinematics import fibre_cauchy_stress, von_mises_stress, von_mises_strain
 from .variants import CELLS, _Names, activation_inputs, constants, stress_and_energy
 
 # F-bar exists for Q1 hexahedra (every law): Q2 does not lock, and on tetrahedra a centre
@@ -111,7 +111,7 @@ def build_fbar_variant(law, active, cell, degree, qdeg):
     if taylor is not None:
         names.export((kin.fibre_stretch, points), "fibre_stretch")
     post = as_vector([kin.fibre_stretch, fibre_cauchy_stress(kin, P_post),
-                      von_mises_stress(kin, P_post), J_u])
+                      von_mises_stress(kin, P_post), J_u, von_mises_strain(kin)])
     names.export((post, points), "post")
     names.export((J_u, [[0.5, 0.5, 0.5]]), "fbar_centre_dilatation")
     return names

@@ -58,3 +58,10 @@ def von_mises_stress(kin, P):
     sigma = cauchy_stress(kin, P)
     s = ufl.dev(sigma)
     return sqrt(1.5 * inner(s, s))
+
+
+def von_mises_strain(kin):
+    """sqrt(2/3 dev E : dev E) of the Green-Lagrange strain: the strain in uniaxial
+    incompressible stretch for small strains."""
+    e = ufl.dev(kin.E)
+    return sqrt(2.0 / 3.0 * inner(e, e))

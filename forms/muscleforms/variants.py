@@ -19,7 +19,7 @@ from ufl import (Coefficient, Constant, FiniteElement, TensorElement, TestFuncti
                  VectorElement, as_vector, derivative, diff, dx, grad, inner, variable)
 
 from .activation import TAYLOR_COEFFICIENTS, taylor_omega
-from .kinematics import Kinematics, fibre_cauchy_stress, von_mises_stress
+from .kinematics import Kinematics, fibre_cauchy_stress, von_mises_stress, von_mises_strain
 from .law import Drive
 
 CELLS = {"hex": "hexahedron", "tet": "tetrahedron"}
@@ -140,7 +140,8 @@ def build_fe_variant(law, active, cell, degree, qdeg, vqdeg=None):
     points, _ = create_quadrature(CELLS[cell], qdeg, "default")
     if taylor is not None:
         names.export((kin.fibre_stretch, points), "fibre_stretch")
-    post = as_vector([kin.fibre_stretch, fibre_cauchy_stress(kin, P), von_mises_stress(kin, P), kin.J])
+    post = as_vector([kin.fibre_stretch, fibre_cauchy_stress(kin, P), von_mises_stress(kin, P), kin.J,
+                      von_mises_strain(kin)])
     names.export((post, points), "post")
     return names
 

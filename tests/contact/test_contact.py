@@ -8,6 +8,8 @@ largest pressure.
 patch: tests/contact/stacked_blocks.yaml, non-matching blocks under uniform pressure.
 sliding: tests/contact/sliding_blocks.yaml, no tangential force without friction (up to the
 tilt of the deformed interface).
+humerus_deltoid: demos/scenes/humerus_deltoid.yaml to t = 0.5 s on 1 and 2 ranks: tie,
+contact between curved bodies, a point constraint and a moving activation together.
 """
 import json
 import math
@@ -97,12 +99,51 @@ def test_contact_sliding(build, scratch, record):
         assert abs(r["top_x"]) < 0.02 * abs(r["top_z"])
 
 
+def test_contact_humerus_deltoid(build, scratch, record):
+    scene = os.path.join(ROOT, "demos", "scenes", "humerus_deltoid.yaml")
+    runs = {}
+    for ranks in (1, 2):
+        out = os.path.join(scratch, f"ranks{ranks}")
+        result = run(build, scene, out, ["output.fields=false"], ranks=ranks)
+        assert result.returncode == 0, result.stdout + result.stderr[-2000:]
+        runs[ranks] = rows(out)
+    one, two = runs[1], runs[2]
+    assert len(one) == len(two) == 100
+    for a, b in zip(one, two):
+        for k in ("rotation_x", "rotation_y", "rotation_z", "contact_force", "contact_area",
+                  "max_pressure", "max_penetration"):
+            assert abs(a[k] - b[k]) <= 1e-8 * max(1.0, abs(a[k])), (a["t"], k, a[k], b[k])
+    summary = json.load(open(os.path.join(scratch, "ranks1", "summary.json")))
+    eps = summary["built"]["contact"][0]["penalty"]
+    onset = next(r["t"] for r in one if r["contact_force"] > 0)
+    peak = max(one, key=lambda r: r["contact_area"])
+    last = one[-1]
+    record(f"humerus-deltoid: first contact at t = {onset:.3f} s, largest contact area "
+           f"{peak['contact_area']:.3g} mm^2 at t = {peak['t']:.3f} s; at t = 0.5 s contact "
+           f"force {last['contact_force']:.4g} mN, rotation about x, y, z "
+           f"{last['rotation_x']:.2f}, {last['rotation_y']:.2f}, {last['rotation_z']:.2f} deg; "
+           f"{sum(r['newton_iterations'] for r in one):.0f} Newton iterations, "
+           f"{sum(r['cutbacks'] for r in one):.0f} cutbacks")
+    # the spinal (posterior, -y) third contracts first and swings the shaft's end
+    # backwards (rotation about +x negative); the front then reaches the acromial
+    # (lateral, +x) third, which abducts the arm (rotation about +y negative)
+    early = next(r for r in one if abs(r["t"] - 0.1) < 1e-9)
+    assert early["rotation_x"] < -1 and abs(early["rotation_y"]) < abs(early["rotation_x"])
+    assert last["rotation_y"] < -10
+    assert 0 < onset < 0.5 and last["contact_force"] > 0
+    # the penalty bound: no point penetrates deeper than its facet's mean pressure
+    # over the penalty allows (points of a facet scatter about its mean)
+    for r in one:
+        assert r["max_penetration"] <= 1.5 * r["max_pressure"] / eps + 1e-12, r
+
+
 @pytest.mark.parametrize("change, message", [
     (["contact[0].surfaces=[upper_bottom, nowhere]"], "nowhere"),
     (["contact[0].penalty=-5"], "penalty"),
     (["contact[0].surfaces=[top, bottom]"], "never face"),
     (["contact[0].surfaces=[lower_top, lower_top]"], "itself"),
-], ids=["unknown surface", "negative penalty", "never facing", "same surface"])
+    (["contact[0].normals=smoth"], "did you mean 'smooth'"),
+], ids=["unknown surface", "negative penalty", "never facing", "same surface", "normals"])
 def test_contact_broken(build, scratch, change, message):
     result = run(build, os.path.join(HERE, "stacked_blocks.yaml"), scratch, change)
     assert result.returncode == 2, result.stdout + result.stderr
