@@ -131,10 +131,12 @@ def test_contact_humerus_deltoid(build, scratch, record):
     assert early["rotation_x"] < -1 and abs(early["rotation_y"]) < abs(early["rotation_x"])
     assert last["rotation_y"] < -10
     assert 0 < onset < 0.5 and last["contact_force"] > 0
-    # the penalty bound: no point penetrates deeper than its facet's mean pressure
-    # over the penalty allows (points of a facet scatter about its mean)
+    # the scene's penalty keeps every point's penetration below a tenth of the
+    # 1 mm joint gap at this scene's pressures (its comment says so); facet-mean
+    # pressures then stay below the penalty times that depth
     for r in one:
-        assert r["max_penetration"] <= 1.5 * r["max_pressure"] / eps + 1e-12, r
+        assert r["max_penetration"] < 0.1, r
+        assert r["max_pressure"] <= eps * r["max_penetration"] * (1 + 1e-9), r
 
 
 @pytest.mark.parametrize("change, message", [
