@@ -143,16 +143,42 @@ public:
   std::pair<double, std::int32_t> min_jacobian_determinant() const;
 
 private:
+  // nonlinear_solver.cpp: the linear solver of the Newton steps
+  void configure_linear_solver(KSP linear);
+
+  // newton_callbacks.cpp: what SNES calls back (the residual and the Jacobian at
+  // an iterate, the convergence test); a non-finite value is a domain error
   static PetscErrorCode residual_callback(SNES, Vec x, Vec F, void* ctx);
   static PetscErrorCode jacobian_callback(SNES, Vec x, Mat J, Mat P, void* ctx);
-  void assemble_full_jacobian();
   static PetscErrorCode convergence_test(SNES, PetscInt it, PetscReal xnorm,
                                          PetscReal ynorm, PetscReal fnorm,
                                          SNESConvergedReason* reason, void* ctx);
+  /// u (and the activation kernels) at the SNES iterate x
   void set_state(Vec x);
+  void assemble_full_jacobian();
+  /// _A += the loads' and the terms' tangents, identity rows of the Dirichlet
+  /// dofs, final assembly; _matrix_norm
+  void close_jacobian();
+  /// b (owned) += the terms' residuals
+  void add_term_residuals(std::span<double> b) const;
+  /// |u| of the SNES iterate's displacement block
+  double displacement_norm(SNES snes) const;
 
-  // Three-field F-bar (cell unknowns next to u in the SNES vector)
+  // newton_report.cpp: what a solve did, and why it failed
+  NewtonReport outcome(PetscErrorCode error, long inner_iterations_before) const;
+
+  // constraint_reduction.cpp: u = T x
+  /// J = T^T A T, rebuilt when A gained nonzeros (contact couples new dofs)
+  void reduce(Mat J, bool first);
+  /// du (reduced or full owned) -> _work (full, ghosts updated)
+  void to_full(Vec du);
+  /// x_red += T^T w_owned (or x += w_owned)
+  void add_restricted(const dolfinx::la::Vector<double>& w, Vec x);
+
+  // fbar_newton.cpp: three-field F-bar (cell unknowns next to u in the SNES vector)
   void create_cell_unknowns();
+  /// The SNES iterate from u, with theta = J0(u), p = r_0; then first_full_step
+  void start_three_field();
   void set_extended_state(Vec x_ext);
   /// One full Newton step when boundary values moved (see the definition).
   void first_full_step();
@@ -168,12 +194,6 @@ private:
     std::vector<std::span<double>> cells;
   };
   Blocks blocks(double* array) const;
-  /// du (reduced or full owned) -> _work (full, ghosts updated)
-  void to_full(Vec du);
-  /// x_red += T^T w_owned (or x += w_owned)
-  void add_restricted(const dolfinx::la::Vector<double>& w, Vec x);
-  /// |u| of the SNES iterate's displacement block
-  double displacement_norm(SNES snes) const;
 
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh
@@ -182,10 +202,6 @@ private:
       _extra_jacobians;
   std::vector<std::shared_ptr<NonlinearTerm>> _terms;
   Vec _term_F = nullptr;
-  /// b (owned) += the terms' residuals
-  void add_term_residuals(std::span<double> b) const;
-  /// J = T^T A T, rebuilt when A gained nonzeros (contact couples new dofs)
-  void reduce(Mat J, bool first);
   PetscObjectState _reduced_state = -1;
   std::shared_ptr<const DisplacementConstraint> _constraint;
   NewtonOptions _options;

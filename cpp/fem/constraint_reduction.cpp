@@ -1,0 +1,85 @@
+// The Newton system under a linear constraint u = T x (uniform-axial, tie):
+// the reduced matrix T^T A T and the maps between reduced and full vectors.
+#include "nonlinear_solver.h"
+
+#include "constraint.h"
+
+#include <dolfinx/la/petsc.h>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+
+void NonlinearSolver::reduce(Mat J, bool first)
+{
+  PetscObjectState state;
+  MatGetNonzeroState(_A, &state);
+  // the state is a rank's own: one rank's new contact nonzeros must send every
+  // rank down the same (collective) branch
+  int changed = state != _reduced_state;
+  MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_MAX, _problem.mesh()->comm());
+  if (first)
+    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
+  else if (changed)
+  {
+    // A gained nonzeros (contact): a new product of our own, copied into J (which
+    // the KSP holds).  J's own product data describe the old pattern, so J is
+    // never recomputed in place again: a numeric PtAP on a stale symbolic
+    // product reads past its arrays (crashed on 2 ranks).
+    if (_ptap)
+      MatDestroy(&_ptap);
+    MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_ptap);
+    MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+    MatCopy(_ptap, J, DIFFERENT_NONZERO_PATTERN);
+  }
+  else if (_ptap)
+  {
+    MatPtAP(_A, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &_ptap);
+    MatCopy(_ptap, J, SAME_NONZERO_PATTERN);
+  }
+  else
+    MatPtAP(_A, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &J);
+  _reduced_state = state;
+}
+
+void NonlinearSolver::to_full(Vec du)
+{
+  if (_constraint)
+    _constraint->prolong(du, _work);
+  else
+  {
+    const PetscScalar* a;
+    VecGetArrayRead(du, &a);
+    PetscInt n;
+    VecGetLocalSize(du, &n);
+    std::copy(a, a + n, _work.mutable_array().begin());
+    VecRestoreArrayRead(du, &a);
+    _work.scatter_fwd();
+  }
+}
+
+void NonlinearSolver::add_restricted(const la::Vector<double>& w, Vec x)
+{
+  PetscInt n;
+  VecGetLocalSize(x, &n);
+  if (_constraint)
+  {
+    Vec wv;
+    const auto map = w.map();
+    VecCreateMPIWithArray(map->comm(), 1, w.bs() * map->size_local(), PETSC_DETERMINE,
+                          w.array().data(), &wv);
+    MatMultTransposeAdd(_constraint->T(), wv, x, x);
+    VecDestroy(&wv);
+  }
+  else
+  {
+    PetscScalar* a;
+    VecGetArray(x, &a);
+    for (PetscInt i = 0; i < n; ++i)
+      a[i] += w.array()[i];
+    VecRestoreArray(x, &a);
+  }
+}
+
+} // namespace muscle

@@ -1,0 +1,54 @@
+// What a Newton solve did, and in words why it failed: PETSc's reason, a
+// stagnation, a failed linear solve, the terms' own diagnosis.
+#include "nonlinear_solver.h"
+
+#include "linear_failure.h"
+
+using namespace dolfinx;
+
+namespace muscle
+{
+
+NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iterations_before) const
+{
+  NewtonReport report;
+  SNESConvergedReason reason;
+  SNESGetConvergedReason(_snes, &reason);
+  if (error and reason > 0)
+    reason = SNES_DIVERGED_FUNCTION_DOMAIN; // never report an errored solve as converged
+  report.converged = reason > 0 and !error;
+  report.reason = _stagnated ? "STAGNATED (residual down by less than "
+                                   + std::to_string(_options.stagnation_reduction)
+                                   + " in " + std::to_string(_options.stagnation_window)
+                                   + " iterations)"
+                             : std::string(SNESConvergedReasons[reason]);
+  if (error)
+  {
+    // in the displacement Newton the error escapes SNES from its KSP
+    report.reason = "DIVERGED_LINEAR_SOLVE";
+    report.linear_failure = describe_linear_failure(linear_solver(), error);
+  }
+  else if (reason == SNES_DIVERGED_LINEAR_SOLVE)
+    report.linear_failure = describe_linear_failure(linear_solver(), _linear_error);
+  if (!report.linear_failure.empty())
+    report.reason += " (" + report.linear_failure + ")";
+  if (!report.converged)
+    for (const auto& t : _terms)
+      if (const std::string d = t->diagnosis(); !d.empty())
+        report.reason += "; " + d;
+  PetscInt its, lits;
+  SNESGetIterationNumber(_snes, &its);
+  SNESGetLinearSolveIterations(_snes, &lits);
+  report.iterations = its + _full_steps;
+  report.linear_iterations
+      = _cell_unknowns.empty() ? lits : _inner_iterations - inner_iterations_before;
+  PetscReal* history;
+  PetscInt n;
+  SNESGetConvergenceHistory(_snes, &history, nullptr, &n);
+  report.residual_norms.assign(history, history + n);
+  report.kernel = _last_kernel;
+  report.non_finite = _non_finite;
+  return report;
+}
+
+} // namespace muscle
