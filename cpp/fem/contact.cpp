@@ -197,8 +197,12 @@ std::vector<ContactPair::Master> ContactPair::gather_master() const
       Point sum{};
       for (std::size_t g : around[out[f].current.node[k]])
         if (dot(unit(normal[g]), nf) >= feature)
+        {
           for (int c = 0; c < 3; ++c)
             sum[c] += normal[g][c];
+          out[f].ring[k].push_back(g);
+        }
+      out[f].corner_length[k] = std::sqrt(dot(sum, sum));
       out[f].corner_normal[k] = unit(sum);
     }
   }
@@ -208,7 +212,8 @@ std::vector<ContactPair::Master> ContactPair::gather_master() const
 template <typename F>
 void ContactPair::for_each_contact(F&& f, bool with_open)
 {
-  const std::vector<Master> master = gather_master();
+  _gathered = gather_master();
+  const std::vector<Master>& master = _gathered;
   // bounding spheres of the master facets, and a k-d tree over their centres
   MasterCentres centres;
   std::vector<double> radius;
@@ -307,12 +312,110 @@ void ContactPair::add_residual(Vec F)
 void ContactPair::add_jacobian(Mat A)
 {
   for_each_contact(
-      [&](const QuadraturePoint&, const Facet& s, const Master& m, const ContactPoint& p)
+      [&](const QuadraturePoint& q, const Facet& s, const Master& m, const ContactPoint& p)
       {
         const std::vector<PetscInt> dofs = global_dofs(s, m);
         MatSetValues(A, dofs.size(), dofs.data(), dofs.size(), dofs.data(), p.tangent.data(),
                      ADD_VALUES);
+        if (_settings.smooth_normals)
+          add_normal_motion(A, q, dofs, m, p);
       });
+}
+
+namespace
+{
+/// [v]_x: [v]_x w = v x w
+std::array<double, 9> skew(const Point& v)
+{
+  return {0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0};
+}
+} // namespace
+
+void ContactPair::add_normal_motion(Mat A, const QuadraturePoint& q,
+                                    const std::vector<PetscInt>& rows, const Master& m,
+                                    const ContactPoint& p)
+{
+  // The force eps w g nu, nu = nu^ / |nu^|, nu^ = sum_j N_j nu_j, moves with the
+  // corner normals nu_j = s_j / |s_j|, s_j the oriented (area-weighted) normals
+  // c_f = (x1 - x0) x (x2 - x0) of the facets around corner j: the part of the
+  // tangent contact_kernel.h leaves out.  dc = [a]_x db - [b]_x da.
+  const std::vector<Master>& all = _gathered;
+  const Point& nu = p.normal;
+  Point nh{};
+  for (int j = 0; j < m.current.n; ++j)
+    for (int k = 0; k < 3; ++k)
+      nh[k] += p.master_shape[j] * m.corner_normal[j][k];
+  const double L = std::sqrt(dot(nh, nh));
+  // d nu / d x_node (3 x 3) per global node of the rings
+  std::unordered_map<std::int64_t, std::array<double, 9>> dnu;
+  std::unordered_map<std::int64_t, std::array<bool, 3>> fixed;
+  for (int j = 0; j < m.current.n; ++j)
+  {
+    const Point& nj = m.corner_normal[j];
+    // W = N_j (I - nu nu)/L (I - nu_j nu_j)/|s_j|
+    std::array<double, 9> Pj{}, W{};
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        Pj[3 * a + b] = ((a == b) - nj[a] * nj[b]) / m.corner_length[j];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+      {
+        double v = 0;
+        for (int c = 0; c < 3; ++c)
+          v += ((a == c) - nu[a] * nu[c]) / L * Pj[3 * c + b];
+        W[3 * a + b] = p.master_shape[j] * v;
+      }
+    for (std::size_t g : m.ring[j])
+    {
+      const Master& f = all[g];
+      const Point a = sub(f.current.x[1], f.current.x[0]);
+      const Point b = sub(f.current.x[2], f.current.x[0]);
+      const std::array<double, 9> A_ = skew(a), B_ = skew(b);
+      // dc/dx0 = [b] - [a], dc/dx1 = -[b], dc/dx2 = [a], times the orientation
+      const std::array<double, 9> dc[3] = {
+          {B_[0] - A_[0], B_[1] - A_[1], B_[2] - A_[2], B_[3] - A_[3], B_[4] - A_[4],
+           B_[5] - A_[5], B_[6] - A_[6], B_[7] - A_[7], B_[8] - A_[8]},
+          {-B_[0], -B_[1], -B_[2], -B_[3], -B_[4], -B_[5], -B_[6], -B_[7], -B_[8]},
+          A_};
+      for (int k = 0; k < 3; ++k)
+      {
+        std::array<double, 9>& D = dnu[f.current.node[k]];
+        for (int d = 0; d < 3; ++d)
+          fixed[f.current.node[k]][d] = f.fixed[3 * k + d];
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c)
+          {
+            double v = 0;
+            for (int e = 0; e < 3; ++e)
+              v += W[3 * r + e] * dc[k][3 * e + c];
+            D[3 * r + c] += f.orientation * v;
+          }
+      }
+    }
+  }
+  // rows: the force direction's factors (slave N_i, master -N_j) times eps w g
+  const double fg = _settings.penalty * q.weight * p.gap;
+  const int ns = static_cast<int>(rows.size()) / 3 - m.current.n;
+  std::vector<double> factor;
+  for (int i = 0; i < ns; ++i)
+    factor.push_back(fg * q.N[i]);
+  for (int j = 0; j < m.current.n; ++j)
+    factor.push_back(-fg * p.master_shape[j]);
+  std::vector<PetscInt> cols;
+  std::vector<double> values(rows.size() * 3 * dnu.size());
+  for (const auto& [node, D] : dnu)
+    for (int c = 0; c < 3; ++c)
+      cols.push_back(fixed[node][c] ? -1 : 3 * node + c);
+  std::size_t n = 0;
+  for (const auto& entry : dnu)
+  {
+    const std::array<double, 9>& D = entry.second;
+    for (std::size_t r = 0; r < rows.size(); ++r)
+      for (int c = 0; c < 3; ++c)
+        values[r * cols.size() + 3 * n + c] = factor[r / 3] * D[3 * (r % 3) + c];
+    ++n;
+  }
+  MatSetValues(A, rows.size(), rows.data(), cols.size(), cols.data(), values.data(), ADD_VALUES);
 }
 
 std::string ContactPair::diagnosis() const

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "nonlinear_solver.h"
+#include "contact_kernel.h"
 #include "surface_facets.h"
 
 #include <dolfinx/fem/Function.h>
@@ -84,12 +85,18 @@ private:
     /// of the facets around the node that lie within the feature angle of this
     /// facet's (an edge of a block stays sharp)
     std::array<Point, 4> corner_normal;
+    std::array<double, 4> corner_length;             ///< |sum of the ring's normals|
+    std::array<std::vector<std::size_t>, 4> ring;    ///< facets averaged at each corner
   };
 
   SurfaceFacet current(const Facet& f) const;
   /// Global dofs of a contact point's [slave | master] nodes; -1 where fixed.
   std::vector<PetscInt> global_dofs(const Facet& s, const Master& m) const;
   std::vector<Master> gather_master() const;
+  /// The tangent of the corner normals' motion (smooth normals): rows the
+  /// contact point's [slave | master] dofs, columns the nodes of the rings.
+  void add_normal_motion(Mat A, const QuadraturePoint& q, const std::vector<PetscInt>& rows,
+                         const Master& m, const ContactPoint& p);
   /// Visit the slave points in contact: f(point, slave facet (current), master, result)
   /// `with_open`: also the points facing the master within the search
   /// distance but not in contact (g > 0)
@@ -99,6 +106,7 @@ private:
   std::shared_ptr<const dolfinx::fem::Function<double>> _u;
   Settings _settings;
   std::vector<Facet> _slave, _master;
+  std::vector<Master> _gathered; ///< the master surface of the last evaluation
   std::vector<QuadraturePoint> _points;
   std::vector<char> _fixed; ///< local unrolled dofs
   std::int64_t _active = 0, _previous_active = 0, _changed = 0, _evaluations = 0;

@@ -41,7 +41,7 @@ def main():
         out = os.path.join(args.out, f"fine_{fine}")
         start = time.time()
         r = subprocess.run([os.path.join(args.build, "muscle-run"), scene, "--out", out,
-                            "--quiet", "--no-fields", "--set", f"mesh.set.fine={fine}"],
+                            "--quiet", "--set", "output.fields=false", "--set", f"mesh.set.fine={fine}"],
                            capture_output=True, text=True)
         wall = time.time() - start
         if r.returncode != 0:
