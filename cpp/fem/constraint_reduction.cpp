@@ -15,10 +15,9 @@ void NonlinearSolver::reduce(Mat J, bool first)
 {
   PetscObjectState state;
   MatGetNonzeroState(_A, &state);
-  // the state is a rank's own: one rank's new contact nonzeros must send every
-  // rank down the same (collective) branch
-  int changed = state != _reduced_state;
-  MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_MAX, _problem.mesh()->comm());
+  // (MPIAIJ sums the nonzero state over the ranks at assembly, so every rank
+  // takes the same, collective, branch)
+  const bool changed = state != _reduced_state;
   if (first)
     MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
   else if (changed)
@@ -26,7 +25,9 @@ void NonlinearSolver::reduce(Mat J, bool first)
     // A gained nonzeros (contact): a new product of our own, copied into J (which
     // the KSP holds).  J's own product data describe the old pattern, so J is
     // never recomputed in place again: a numeric PtAP on a stale symbolic
-    // product reads past its arrays (crashed on 2 ranks).
+    // product reads past its arrays (crashed on 2 ranks).  The later copies with
+    // SAME_NONZERO_PATTERN rely on A's pattern only growing (contact adds
+    // entries, nothing removes them), so J's pattern stays _ptap's.
     if (_ptap)
       MatDestroy(&_ptap);
     MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_ptap);

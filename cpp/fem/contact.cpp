@@ -13,8 +13,6 @@
 #include <nanoflann.hpp>
 #include <numeric>
 #include <unordered_map>
-#include <cstdio>
-#include <cstdlib>
 #include <petscvec.h>
 
 using namespace dolfinx;

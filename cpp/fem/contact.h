@@ -97,7 +97,7 @@ private:
   /// contact point's [slave | master] dofs, columns the nodes of the rings.
   void add_normal_motion(Mat A, const QuadraturePoint& q, const std::vector<PetscInt>& rows,
                          const Master& m, const ContactPoint& p);
-  /// Visit the slave points in contact: f(point, slave facet (current), master, result)
+  /// Visit the slave points in contact: f(point, slave facet, master (current), result)
   /// `with_open`: also the points facing the master within the search
   /// distance but not in contact (g > 0)
   template <typename F>

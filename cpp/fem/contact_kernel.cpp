@@ -53,7 +53,20 @@ ContactPoint contact_point(const SurfaceFacet& slave, const std::array<double, 4
   const Point d = {xs[0] - xm[0], xs[1] - xm[1], xs[2] - xm[2]};
   c.gap = dot(d, n);
   if (c.gap > 0)
+  {
+    if (corner_normals)
+    {
+      Point nu{};
+      for (int j = 0; j < master.n; ++j)
+        for (int k = 0; k < 3; ++k)
+          nu[k] += Nm[j] * (*corner_normals)[j][k];
+      const double l = std::sqrt(dot(nu, nu));
+      for (double& v : nu)
+        v /= l;
+      c.normal = nu;
+    }
     return c;
+  }
 
   const int ns = slave.n, nm = master.n, size = 3 * (ns + nm);
   // dg/du and the vectors of its second derivative, on [slave | master] dofs

@@ -36,10 +36,12 @@ struct ContactPoint
 /// interpolation nu(xi) (normalised) instead of the facet normal, while the gap
 /// stays the facet's.  On a faceted curved surface the facet normal jumps from
 /// facet to facet, and a sliding point comes to rest on a ridge where no
-/// equilibrium exists (Newton cycles); nu is continuous across the facets.  The
-/// residual is then no energy gradient; the tangent is its exact derivative with
-/// the corner normals held fixed (their motion with the neighbouring nodes, a
-/// term of order g / h, is left out).
+/// equilibrium exists (Newton cycles); nu is continuous across facets that
+/// average the same neighbours at their shared nodes (ContactPair: all within
+/// 45 degrees).  The residual is then no energy gradient; the tangent here is
+/// its derivative with the corner normals held fixed, and
+/// ContactPair::add_normal_motion adds their motion with the neighbouring nodes.
+/// The normal returned is nu also for a point not in contact.
 ContactPoint contact_point(const SurfaceFacet& slave, const std::array<double, 4>& Ns,
                            const SurfaceFacet& master, int orientation, double eps,
                            double weight, const std::array<Point, 4>* corner_normals = nullptr);

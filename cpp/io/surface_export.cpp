@@ -61,7 +61,11 @@ void export_deformed_surface(
     for (std::size_t m = 0; m < more.size(); ++m)
     {
       std::span<const double> a = more[m]->x()->array();
-      const auto dofs = more[m]->function_space()->dofmap()->cell_dofs(c);
+      const auto& dofmap = *more[m]->function_space()->dofmap();
+      if (dofmap.bs() != 1)
+        throw std::runtime_error("export_deformed_surface: '" + more[m]->name
+                                 + "' is not a scalar field");
+      const auto dofs = dofmap.cell_dofs(c);
       double v = 0;
       if (dofs.size() == 1)
         v = a[dofs[0]];

@@ -101,27 +101,49 @@ def test_contact_sliding(build, scratch, record):
         assert abs(r["top_x"]) < 0.02 * abs(r["top_z"])
 
 
-@pytest.mark.parametrize("normals", ["smooth", "facet"])
-def test_contact_jacobian(build, scratch, record, normals):
+JACOBIAN_CASES = {
+    # a curved master of triangles: the block pressed by the hemisphere's surface
+    "smooth, tetrahedra": (os.path.join(ROOT, "demos", "scenes", "hertz.yaml"),
+                           ["contact[0].surfaces=[block_top, sphere_surface]",
+                            "contact[0].normals=smooth", "mesh.set.fine=1", "mesh.set.size=5",
+                            "time.step=1"], 1),
+    "facet, tetrahedra": (os.path.join(ROOT, "demos", "scenes", "hertz.yaml"),
+                          ["contact[0].surfaces=[block_top, sphere_surface]",
+                           "contact[0].normals=facet", "mesh.set.fine=1", "mesh.set.size=5",
+                           "time.step=1"], 1),
+    # the same on 2 ranks: rings that span ranks
+    "smooth, tetrahedra, 2 ranks": (os.path.join(ROOT, "demos", "scenes", "hertz.yaml"),
+                                    ["contact[0].surfaces=[block_top, sphere_surface]",
+                                     "contact[0].normals=smooth", "mesh.set.fine=1",
+                                     "mesh.set.size=5", "time.step=1"], 2),
+}
+# Not a case: the stacked blocks (hexahedra).  Their non-matching interface puts
+# slave points exactly over master edges, where the closest facet switches and the
+# tangent is one-sided: finite differences differ by 6e-4 .. 2e-3 with either
+# normal choice.
+
+
+@pytest.mark.parametrize("case", JACOBIAN_CASES)
+def test_contact_jacobian(build, scratch, record, case):
     import re
-    sets = ["contact[0].surfaces=[block_top, sphere_surface]", f"contact[0].normals={normals}",
-            "mesh.set.fine=1", "mesh.set.size=5", "time.step=1", "time.max_cutbacks=0",
-            "output.fields=false"]
-    command = [os.path.join(build, "muscle-run"), os.path.join(ROOT, "demos", "scenes",
-               "hertz.yaml"), "--out", scratch, "-snes_test_jacobian", "-snes_max_it", "3"]
-    for s in sets:
-        command += ["--set", s]
     import subprocess
+    scene, sets, ranks = JACOBIAN_CASES[case]
+    command = [os.path.join(build, "muscle-run"), scene, "--out", scratch,
+               "-snes_test_jacobian", "-snes_max_it", "3"]
+    for s in sets + ["time.max_cutbacks=0", "output.fields=false"]:
+        command += ["--set", s]
+    if ranks > 1:
+        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + command
     result = subprocess.run(command, capture_output=True, text=True, timeout=900)
     ratios = [float(m) for m in re.findall(r"\|\|J - Jfd\|\|_F/\|\|J\|\|_F = ([0-9.eE+-]+)",
                                             result.stdout)]
-    record(f"contact Jacobian, {normals} normals, curved master: ||J - Jfd|| / ||J|| = "
+    record(f"contact Jacobian, {case}: ||J - Jfd|| / ||J|| = "
            + ", ".join(f"{r:.2g}" for r in ratios))
-    # the first Jacobian of a solve, at the start of the step (the top face's
-    # displacement moved, nothing in contact yet), differs by 1e-2 with either
-    # normal choice; the ones in contact are checked.
-    # Leaving out the corner normals' motion gives 1.3e-4 here.
-    assert len(ratios) == 3, result.stdout[-2000:] + result.stderr[-2000:]
+    # the first Jacobian of a solve, at the start of the step (the boundary values
+    # moved, nothing in contact yet), differs by 1e-2 on the Hertz scene with
+    # either normal choice; the ones in contact are checked.  Leaving out the
+    # corner normals' motion gives 1.3e-4 on the Hertz scene.
+    assert len(ratios) >= 3, result.stdout[-2000:] + result.stderr[-2000:]
     assert max(ratios[1:]) < 1e-6
 
 
