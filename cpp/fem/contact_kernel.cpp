@@ -49,24 +49,23 @@ ContactPoint contact_point(const SurfaceFacet& slave, const std::array<double, 4
   const double length = std::sqrt(dot(n, n));
   for (double& v : n)
     v *= orientation / length;
-  c.normal = n;
   const Point d = {xs[0] - xm[0], xs[1] - xm[1], xs[2] - xm[2]};
   c.gap = dot(d, n);
-  if (c.gap > 0)
+  // nu = nu^ / |nu^|, nu^ = sum N_j nu_j: the force's direction with corner normals
+  Point nh{}, nu = n;
+  double nl = 1;
+  if (corner_normals)
   {
-    if (corner_normals)
-    {
-      Point nu{};
-      for (int j = 0; j < master.n; ++j)
-        for (int k = 0; k < 3; ++k)
-          nu[k] += Nm[j] * (*corner_normals)[j][k];
-      const double l = std::sqrt(dot(nu, nu));
-      for (double& v : nu)
-        v /= l;
-      c.normal = nu;
-    }
-    return c;
+    for (int j = 0; j < master.n; ++j)
+      for (int k = 0; k < 3; ++k)
+        nh[k] += Nm[j] * (*corner_normals)[j][k];
+    nl = std::sqrt(dot(nh, nh));
+    for (int k = 0; k < 3; ++k)
+      nu[k] = nh[k] / nl;
   }
+  c.normal = nu;
+  if (c.gap > 0)
+    return c;
 
   const int ns = slave.n, nm = master.n, size = 3 * (ns + nm);
   // dg/du and the vectors of its second derivative, on [slave | master] dofs
@@ -109,26 +108,20 @@ ContactPoint contact_point(const SurfaceFacet& slave, const std::array<double, 4
   const double f = eps * weight;
   if (corner_normals)
   {
-    // nu = nu^ / |nu^|, nu^ = sum N_j nu_j; dnu/dxi_a = (I - nu nu) dnu^/dxi_a / |nu^|
-    Point nh{}, dh1{}, dh2{};
+    // dnu/dxi_a = (I - nu nu) dnu^/dxi_a / |nu^|
+    Point dh1{}, dh2{}, dnu1, dnu2;
     for (int j = 0; j < nm; ++j)
       for (int k = 0; k < 3; ++k)
       {
-        nh[k] += Nm[j] * (*corner_normals)[j][k];
         dh1[k] += d1[j] * (*corner_normals)[j][k];
         dh2[k] += d2[j] * (*corner_normals)[j][k];
       }
-    const double nl = std::sqrt(dot(nh, nh));
-    Point nu, dnu1, dnu2;
-    for (int k = 0; k < 3; ++k)
-      nu[k] = nh[k] / nl;
     const double p1 = dot(nu, dh1), p2 = dot(nu, dh2);
     for (int k = 0; k < 3; ++k)
     {
       dnu1[k] = (dh1[k] - p1 * nu[k]) / nl;
       dnu2[k] = (dh2[k] - p2 * nu[k]) / nl;
     }
-    c.normal = nu;
     // force direction on [slave | master] dofs and its derivative along dxi/du
     std::vector<double> Fv(size), F1(size), F2(size);
     for (int i = 0; i < ns; ++i)
