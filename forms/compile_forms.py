@@ -160,7 +160,7 @@ def registry_source(laws, sets, extra):
         split = (f"form_{n}_residual_volumetric, form_{n}_jacobian_volumetric" if vqdeg != qdeg
                  else "nullptr, nullptr")
         lines.append(f'      {{"{kernels}", "{variants.CELLS[cell]}", {degree}, {qdeg}, {vqdeg}, '
-                     f'form_{n}_residual, form_{n}_jacobian, {split}, form_{n}_volume, '
+                     f'form_{n}_residual, form_{n}_jacobian, {split}, form_{n}_volume, form_{n}_energy, '
                      f'functionspace_form_{n}_residual, {stretch}, expression_{n}_post, '
                      f'{"&fbar_" + n if with_fbar else "nullptr"}}},')
     lines += ["  };", "  return table;", "}", "",
@@ -180,7 +180,8 @@ def registry_source(laws, sets, extra):
               "  static const std::vector<LoadVariant> table = {"]
     for (c, degree), n in zip(LOAD_ELEMENTS, load_prefixes()):
         forms = ", ".join(f"form_{n}_{k}" for k in ("pressure_residual", "pressure_jacobian",
-                                                    "traction_residual", "gravity_residual", "area"))
+                                                    "traction_residual", "gravity_residual", "area",
+                                                    "mass"))
         lines.append(f'      {{"{variants.CELLS[c]}", {degree}, {forms}, '
                      f'functionspace_form_{n}_pressure_residual}},')
     lines += ["  };", "  return table;", "}", "", "} // namespace muscle::forms", ""]

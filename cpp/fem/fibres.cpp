@@ -19,6 +19,46 @@ using namespace dolfinx;
 
 namespace muscle
 {
+namespace
+{
+/// `form` (compiled as `compiled`) integrated over the cells tagged 1 only.
+std::shared_ptr<fem::Form<double>> over_cells(const fem::Form<double>& form,
+                                              const ufcx_form& compiled,
+                                              std::shared_ptr<mesh::MeshTags<std::int32_t>> cells)
+{
+  using Kernel = std::function<void(double*, const double*, const double*, const double*,
+                                    const int*, const std::uint8_t*)>;
+  const Kernel kernel = compiled.integrals(ufcx_integral_type::cell)[0]->tabulate_tensor_float64;
+  std::map<fem::IntegralType,
+           std::pair<std::vector<std::pair<int, Kernel>>, const mesh::MeshTags<int>*>>
+      integrals;
+  integrals[fem::IntegralType::cell] = {{{1, kernel}}, cells.get()};
+  // (the form keeps only the cell lists, not the tags)
+  return std::make_shared<fem::Form<double>>(form.function_spaces(), integrals,
+                                             form.coefficients(), form.constants(), false,
+                                             form.mesh());
+}
+
+/// The local dofs of V (owned and ghost) on no cell of `cells` on any rank.
+std::vector<std::int32_t> dofs_outside(const fem::FunctionSpace& V,
+                                       const std::vector<std::int32_t>& cells)
+{
+  const auto& dofmap = *V.dofmap();
+  la::Vector<double> marker(dofmap.index_map, 1);
+  std::span<double> m = marker.mutable_array();
+  for (std::int32_t c : cells)
+    for (std::int32_t d : dofmap.cell_dofs(c))
+      m[d] = 1;
+  marker.scatter_rev(std::plus<double>());
+  marker.scatter_fwd();
+  std::vector<std::int32_t> outside;
+  for (std::size_t d = 0; d < m.size(); ++d)
+    if (m[d] == 0)
+      outside.push_back(d);
+  return outside;
+}
+} // namespace
+
 
 LaplaceFibres laplace_fibres(std::shared_ptr<mesh::Mesh> mesh,
                              const mesh::MeshTags<std::int32_t>& facet_tags,
@@ -39,13 +79,25 @@ LaplaceFibres laplace_fibres(std::shared_ptr<mesh::Mesh> mesh,
   auto source = std::make_shared<fem::Constant<double>>(0.0);
   using Coefficients = std::map<std::string, std::shared_ptr<const fem::Function<double>>>;
   using Constants = std::map<std::string, std::shared_ptr<const fem::Constant<double>>>;
-  auto a = std::make_shared<fem::Form<double>>(
+  const auto a_all = std::make_shared<fem::Form<double>>(
       fem::create_form<double>(*variant->laplace, {V, V}, Coefficients{}, Constants{}, {}));
+  auto a = a_all;
   auto L = std::make_shared<fem::Form<double>>(fem::create_form<double>(
       *variant->rhs, {V}, Coefficients{}, Constants{{"source", source}}, {}));
 
   mesh->topology_mutable().create_connectivity(2, 3);
   std::vector<std::shared_ptr<const fem::DirichletBC<double>>> bcs;
+  if (only)
+  {
+    // the potential of this part alone: its cells' Laplacian, and zero at
+    // every other dof (another body's dofs would make a singular block, on
+    // which MUMPS fails now and then on two ranks)
+    auto cells = std::make_shared<mesh::MeshTags<std::int32_t>>(
+        mesh, 3, *only, std::vector<std::int32_t>(only->size(), 1));
+    a = over_cells(*a, *variant->laplace, cells);
+    bcs.push_back(std::make_shared<fem::DirichletBC<double>>(
+        std::make_shared<fem::Constant<double>>(0.0), dofs_outside(*V, *only), V));
+  }
   for (auto [tag, value] : {std::pair{from_tag, 0.0}, {to_tag, 1.0}})
   {
     const std::vector<std::int32_t> facets = facet_tags.find(tag);
@@ -54,7 +106,8 @@ LaplaceFibres laplace_fibres(std::shared_ptr<mesh::Mesh> mesh,
         fem::locate_dofs_topological(*V, 2, facets), V));
   }
 
-  la::petsc::Matrix A(fem::petsc::create_matrix(*a), false);
+  // (the whole mesh's pattern: the unit rows of the other dofs go in too)
+  la::petsc::Matrix A(fem::petsc::create_matrix(*a_all), false);
   MatZeroEntries(A.mat());
   fem::assemble_matrix(la::petsc::Matrix::set_block_fn(A.mat(), ADD_VALUES), *a, bcs);
   MatAssemblyBegin(A.mat(), MAT_FLUSH_ASSEMBLY);

@@ -20,8 +20,10 @@ struct LaplaceFibres
 /// `fibre_space`: the DG0 vector space the fibre is written into (that of the
 /// muscle problem).  Solved with a direct solver, so the field is the same on
 /// any number of ranks to round-off.
-/// `cells`: the local cells that need a fibre (default all); the others keep
-/// a zero vector.  A cell without gradient stops every rank (InputError).
+/// `cells`: the local cells of the part that needs the fibre (default all):
+/// the potential is solved on them alone (zero at every other dof), the other
+/// cells keep a zero vector.  A cell without gradient stops every rank
+/// (InputError).
 LaplaceFibres laplace_fibres(std::shared_ptr<dolfinx::mesh::Mesh> mesh,
                              const dolfinx::mesh::MeshTags<std::int32_t>& facet_tags,
                              int from_tag, int to_tag,

@@ -93,16 +93,7 @@ void Loads::add_gravity(std::array<double, 3> g, std::function<double(double)> v
   l.constant = std::make_shared<fem::Constant<double>>(std::vector<double>{0, 0, 0},
                                                        std::vector<std::size_t>{3});
   auto V = _u->function_space();
-  auto mesh = std::const_pointer_cast<mesh::Mesh>(V->mesh());
-  const basix::FiniteElement dg0 = basix::create_element(
-      basix::element::family::P, mesh::cell_type_to_basix_type(mesh->topology().cell_type()),
-      0, basix::element::lagrange_variant::equispaced, true);
-  auto rho = std::make_shared<fem::Function<double>>(
-      std::make_shared<fem::FunctionSpace>(fem::create_functionspace(mesh, dg0, 1)));
-  const auto& dofmap = *rho->function_space()->dofmap();
-  std::span<double> x = rho->x()->mutable_array();
-  for (std::size_t c = 0; c < density.size(); ++c)
-    x[dofmap.cell_dofs(c)[0]] = density[c];
+  auto rho = density_function(V->mesh(), density);
   const std::map<std::string, std::shared_ptr<const fem::Function<double>>> coefficients
       = {{"density", rho}};
   const std::map<std::string, std::shared_ptr<const fem::Constant<double>>> constants
@@ -110,6 +101,30 @@ void Loads::add_gravity(std::array<double, 3> g, std::function<double(double)> v
   l.residual = std::make_shared<fem::Form<double>>(fem::create_form<double>(
       *_variant->gravity_residual, {V}, coefficients, constants, {}));
   _loads.push_back(std::move(l));
+}
+
+std::shared_ptr<fem::Function<double>>
+density_function(std::shared_ptr<const mesh::Mesh> mesh, const std::vector<double>& density)
+{
+  auto shared = std::const_pointer_cast<mesh::Mesh>(mesh);
+  const basix::FiniteElement dg0 = basix::create_element(
+      basix::element::family::P, mesh::cell_type_to_basix_type(mesh->topology().cell_type()),
+      0, basix::element::lagrange_variant::equispaced, true);
+  auto rho = std::make_shared<fem::Function<double>>(
+      std::make_shared<fem::FunctionSpace>(fem::create_functionspace(shared, dg0, 1)));
+  const auto& dofmap = *rho->function_space()->dofmap();
+  std::span<double> x = rho->x()->mutable_array();
+  for (std::size_t c = 0; c < density.size(); ++c)
+    x[dofmap.cell_dofs(c)[0]] = density[c];
+  return rho;
+}
+
+std::shared_ptr<fem::Form<double>>
+mass_form(std::shared_ptr<const fem::FunctionSpace> V,
+          std::shared_ptr<const fem::Function<double>> density)
+{
+  return std::make_shared<fem::Form<double>>(fem::create_form<double>(
+      *variant_for(*V).mass, {V, V}, {{"density", density}}, {}, {}));
 }
 
 void Loads::set_time(double t)

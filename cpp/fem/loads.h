@@ -67,4 +67,14 @@ private:
   std::vector<Load> _loads;
 };
 
+/// A cell-wise constant (DG0) field of `density` (kg/mm^3) per local cell.
+std::shared_ptr<dolfinx::fem::Function<double>>
+density_function(std::shared_ptr<const dolfinx::mesh::Mesh> mesh,
+                 const std::vector<double>& density);
+
+/// The consistent mass form int rho du . v dV on V (forms/muscleforms/loads.py).
+std::shared_ptr<dolfinx::fem::Form<double>>
+mass_form(std::shared_ptr<const dolfinx::fem::FunctionSpace> V,
+          std::shared_ptr<const dolfinx::fem::Function<double>> density);
+
 } // namespace muscle

@@ -198,6 +198,8 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
       fem::create_form<double>(*v.jacobian, {_V, _V}, coefficients, constants, {}));
   _volume = std::make_shared<fem::Form<double>>(
       fem::create_form<double>(*v.volume, {}, coefficients, constants, {}, mesh));
+  _energy = std::make_shared<fem::Form<double>>(
+      fem::create_form<double>(*v.energy, {}, coefficients, constants, {}, mesh));
   _residual_kernel = _fbar ? _fbar->residual(*v.residual, *_residual)
                           : cell_kernel(*v.residual, *_residual, v.residual_volumetric);
   const Kernel jacobian_kernel
@@ -213,6 +215,8 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
     _residual = with_kernel(_residual_kernel, *_residual, region->tags.get(), region->value);
     _jacobian = with_kernel(jacobian_kernel, *_jacobian, region->tags.get(), region->value);
     _volume = with_kernel(cell_kernel(*v.volume, *_volume, nullptr), *_volume,
+                          region->tags.get(), region->value);
+    _energy = with_kernel(cell_kernel(*v.energy, *_energy, nullptr), *_energy,
                           region->tags.get(), region->value);
   }
   if (v.fibre_stretch)
@@ -370,9 +374,17 @@ KernelStatus MuscleProblem::update_activation()
   return status;
 }
 
-double MuscleProblem::volume() const
+double MuscleProblem::volume() const { return sum_over_ranks(*_volume); }
+
+double MuscleProblem::strain_energy() const
 {
-  const double local = fem::assemble_scalar(*_volume);
+  update_centre_dilatation();
+  return sum_over_ranks(*_energy);
+}
+
+double MuscleProblem::sum_over_ranks(const fem::Form<double>& functional) const
+{
+  const double local = fem::assemble_scalar(functional);
   double total = 0;
   MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, _mesh->comm());
   return total;

@@ -138,6 +138,9 @@ public:
 
   /// Current volume of the body.
   double volume() const;
+  /// Strain energy of the body at the current displacement and activation
+  /// (mJ = mN mm; collective).
+  double strain_energy() const;
 
   /// Local cells (owned and ghost) this problem integrates over.
   const std::vector<std::int32_t>& cells() const { return _cells; }
@@ -177,7 +180,9 @@ private:
   std::shared_ptr<dolfinx::fem::Function<double>> _u, _fibre, _scale;
   std::map<std::string, std::shared_ptr<dolfinx::fem::Function<double>>> _taylor;
   std::map<std::string, std::shared_ptr<dolfinx::fem::Constant<double>>> _constants;
-  std::shared_ptr<dolfinx::fem::Form<double>> _residual, _jacobian, _volume;
+  std::shared_ptr<dolfinx::fem::Form<double>> _residual, _jacobian, _volume, _energy;
+  /// A functional summed over the ranks.
+  double sum_over_ranks(const dolfinx::fem::Form<double>& functional) const;
   /// the residual's cell kernel (with the volumetric part on its own rule)
   std::function<void(double*, const double*, const double*, const double*, const int*,
                      const std::uint8_t*)>

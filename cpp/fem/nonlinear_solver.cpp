@@ -1,5 +1,6 @@
 #include "nonlinear_solver.h"
 
+#include "../common/errors.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
 #include "rigid_body_modes.h"
@@ -193,6 +194,16 @@ NonlinearSolver::~NonlinearSolver()
 }
 
 Mat NonlinearSolver::system_matrix() const { return _constraint ? _A_red : _A; }
+
+Mat NonlinearSolver::assemble_tangent()
+{
+  if (!_cell_unknowns.empty())
+    throw InputError("the tangent of F-bar elements is condensed inside each solve: natural "
+                     "frequencies need another element (element.fbar: false, or degree 2)");
+  _last_kernel = update_activation();
+  assemble_full_jacobian();
+  return _A;
+}
 
 KSP NonlinearSolver::linear_solver() const
 {

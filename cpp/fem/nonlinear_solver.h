@@ -121,6 +121,11 @@ public:
   /// The last assembled system matrix (reduced if constrained).
   Mat system_matrix() const;
 
+  /// The full tangent at the current displacement (fixed dofs: unit rows), e.g.
+  /// for natural frequencies.  InputError with F-bar cell unknowns, whose
+  /// tangent is only ever condensed inside a solve.
+  Mat assemble_tangent();
+
   const NewtonOptions& options() const { return _options; }
 
   /// The KSP of the displacement system (with F-bar cell unknowns: of the

@@ -1,4 +1,5 @@
 #include "time_stepping.h"
+#include "generalized_alpha.h"
 #include "linear_failure.h"
 
 #include <cmath>
@@ -120,18 +121,27 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
   int successes = _options.first_successes;
   for (int k = 1; k <= steps; ++k)
   {
-    const double target = std::min(_options.t_start + k * dt, _options.t_end);
+    // each output time from the one before: a run resumed at a checkpoint's t
+    // takes the very same steps as the uninterrupted run
+    const double target = k == steps ? _options.t_end : std::min(t + dt, _options.t_end);
     StepRecord record;
-    while (t < target - 1e-14 * dt)
+    // t and the targets are sums and products of dt that differ in the last
+    // bits: a remainder below 1e-9 dt is no step (in dynamics such a step,
+    // with its mass term ~ 1/h^2, would be ruinous)
+    while (target - t > 1e-9 * dt)
     {
-      const double next = std::min(t + h, target);
+      const double next = target - (t + h) < 1e-9 * dt ? target : t + h;
       _set_time(next);
+      if (_dynamics)
+        _dynamics->begin_step(next - t);
       const NewtonReport report = _solver.solve();
       record.newton_iterations += report.iterations;
       record.linear_iterations += report.linear_iterations;
       if (report.converged)
       {
         t = next;
+        if (_dynamics)
+          _dynamics->accept_step();
         ++record.substeps;
         record.residual = report.residual_norms.empty() ? 0 : report.residual_norms.back();
         std::copy(u.array().begin(), u.array().end(), converged.begin());
@@ -154,6 +164,7 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
         return failure;
       }
     }
+    t = target;
     record.t = t;
     record.next_substep = h;
     record.successes = successes;

@@ -10,6 +10,7 @@
 
 namespace muscle
 {
+class GeneralizedAlpha;
 
 struct TimeSteppingOptions
 {
@@ -58,16 +59,21 @@ struct StepFailure
   std::string message(int step_number, const std::string& out) const;
 };
 
-/// Quasi-static time stepping: for each output time solve the equilibrium
-/// with `solver`, after calling `set_time(t)` (activation, boundary values).
-/// A failed Newton solve restores the last converged displacement and cuts
-/// the step back; steps grow again after successes.  `on_output` runs after
-/// every converged output time; returns false from it to stop.
+/// Time stepping: for each output time solve the equilibrium (quasi-static) or
+/// the equation of motion (with set_dynamics) with `solver`, after calling
+/// `set_time(t)` (activation, boundary values).  A failed Newton solve restores
+/// the last converged displacement and cuts the step back; steps grow again
+/// after successes.  `on_output` runs after every converged output time;
+/// returns false from it to stop.
 class QuasiStaticStepper
 {
 public:
   QuasiStaticStepper(MuscleProblem& problem, NonlinearSolver& solver,
                      std::function<void(double)> set_time, TimeSteppingOptions options);
+
+  /// Structural dynamics: the integrator is told each sub-step's length before
+  /// its solve and each converged sub-step (its inertia term is the solver's).
+  void set_dynamics(GeneralizedAlpha* dynamics) { _dynamics = dynamics; }
 
   /// Run to t_end; the returned failure is empty if it got there.
   std::optional<StepFailure>
@@ -81,6 +87,7 @@ private:
   NonlinearSolver& _solver;
   std::function<void(double)> _set_time;
   TimeSteppingOptions _options;
+  GeneralizedAlpha* _dynamics = nullptr;
 };
 
 } // namespace muscle

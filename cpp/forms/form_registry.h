@@ -71,6 +71,7 @@ struct FeVariant
   ufcx_form* residual_volumetric;
   ufcx_form* jacobian_volumetric;
   ufcx_form* volume; ///< functional: current volume
+  ufcx_form* energy; ///< functional: strain energy (F-bar: at theta = J0(u))
   ufcx_function_space* (*function_space)(const char*); ///< spaces by coefficient name
   ufcx_expression* fibre_stretch; ///< at quadrature points (kernel input), or null
   ufcx_expression* post; ///< [lambda, sigma_m, von Mises, J] at quadrature points
@@ -111,6 +112,7 @@ struct LoadVariant
   ufcx_form* traction_residual; ///< dead traction, constant vector "traction"
   ufcx_form* gravity_residual;  ///< DG0 "density" x constant vector "gravity"
   ufcx_form* area;              ///< functional: current area of the surface
+  ufcx_form* mass;              ///< bilinear: DG0 "density" x du . v (dynamics)
   ufcx_function_space* (*function_space)(const char*);
 };
 

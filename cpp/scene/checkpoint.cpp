@@ -23,25 +23,29 @@ Key key(const double* x)
   return {std::llround(x[0] * 1e7), std::llround(x[1] * 1e7), std::llround(x[2] * 1e7)};
 }
 
-constexpr std::int64_t magic = 0x4d55534c45434b31; // "MUSLECK1"
+constexpr std::int64_t magic = 0x4d55534c45434b32; // "MUSLECK2"
 } // namespace
 
-void write_checkpoint(const fem::Function<double>& u, const std::string& directory,
-                      const nlohmann::json& state)
+void write_checkpoint(const std::vector<std::shared_ptr<fem::Function<double>>>& fields,
+                      const std::string& directory, const nlohmann::json& state)
 {
-  const auto& V = *u.function_space();
+  const auto& V = *fields.at(0)->function_space();
+  const std::int64_t n_fields = fields.size();
   const int bs = V.dofmap()->index_map_bs();
   const std::int32_t owned = V.dofmap()->index_map->size_local();
   const std::vector<double> x = V.tabulate_dof_coordinates(false);
-  std::span<const double> values = u.x()->array();
 
-  // node records: x, y, z, then bs values
+  // node records: x, y, z, then bs values of each field
   std::vector<double> local;
-  local.reserve(owned * (3 + bs));
+  local.reserve(owned * (3 + bs * n_fields));
   for (std::int32_t i = 0; i < owned; ++i)
   {
     local.insert(local.end(), x.begin() + 3 * i, x.begin() + 3 * i + 3);
-    local.insert(local.end(), values.begin() + bs * i, values.begin() + bs * (i + 1));
+    for (const auto& f : fields)
+    {
+      std::span<const double> values = f->x()->array();
+      local.insert(local.end(), values.begin() + bs * i, values.begin() + bs * (i + 1));
+    }
   }
   MPI_Comm comm = V.mesh()->comm();
   const int size = dolfinx::MPI::size(comm), rank = dolfinx::MPI::rank(comm);
@@ -72,7 +76,7 @@ void write_checkpoint(const fem::Function<double>& u, const std::string& directo
   }
   {
     std::ofstream out(bin + ".tmp", std::ios::binary);
-    const std::int64_t header[3] = {magic, bs, state.at("step").get<std::int64_t>()};
+    const std::int64_t header[4] = {magic, bs, state.at("step").get<std::int64_t>(), n_fields};
     out.write(reinterpret_cast<const char*>(header), sizeof header);
     out.write(reinterpret_cast<const char*>(all.data()), all.size() * sizeof(double));
     if (!out)
@@ -87,7 +91,8 @@ void write_checkpoint(const fem::Function<double>& u, const std::string& directo
     std::filesystem::remove(directory + "/" + previous);
 }
 
-nlohmann::json read_checkpoint(fem::Function<double>& u, const std::string& directory)
+nlohmann::json read_checkpoint(const std::vector<std::shared_ptr<fem::Function<double>>>& fields,
+                               const std::string& directory)
 {
   const std::string json = directory + "/checkpoint.json";
   if (!std::filesystem::exists(json))
@@ -106,25 +111,30 @@ nlohmann::json read_checkpoint(fem::Function<double>& u, const std::string& dire
   const std::string bin = directory + "/" + state.value("binary", "checkpoint.bin");
   if (!std::filesystem::exists(bin))
     throw InputError("--resume: " + bin + " named by " + json + " is missing");
-  const auto& V = *u.function_space();
+  const auto& V = *fields.at(0)->function_space();
   const int bs = V.dofmap()->index_map_bs();
+  const std::int64_t n_fields = fields.size();
   std::ifstream in(bin, std::ios::binary);
-  std::int64_t header[3] = {0, 0, 0};
+  std::int64_t header[4] = {0, 0, 0, 0};
   in.read(reinterpret_cast<char*>(header), sizeof header);
   if (!in or header[0] != magic or header[1] != bs
       or header[2] != state.at("step").get<std::int64_t>())
-    throw InputError(bin + ": does not match " + json + " (a run killed while writing?)");
+    throw InputError(bin + ": does not match " + json + " (a run killed while writing, or "
+                     "written by an older version?)");
+  if (header[3] != n_fields)
+    throw InputError(bin + ": holds " + std::to_string(header[3]) + " fields per node, this "
+                     "scene needs " + std::to_string(n_fields) + " (was dynamics added or "
+                     "removed?)");
   std::vector<double> all;
   for (double v; in.read(reinterpret_cast<char*>(&v), sizeof v);)
     all.push_back(v);
-  const std::size_t record = 3 + bs;
+  const std::size_t record = 3 + bs * n_fields;
   std::map<Key, std::size_t> index;
   for (std::size_t i = 0; i + record <= all.size(); i += record)
     index[key(&all[i])] = i + 3;
 
   const std::vector<double> x = V.tabulate_dof_coordinates(false);
-  std::span<double> values = u.x()->mutable_array();
-  const std::size_t nodes = values.size() / bs;
+  const std::size_t nodes = fields[0]->x()->array().size() / bs;
   std::int64_t missing = 0;
   for (std::size_t i = 0; i < nodes; ++i)
   {
@@ -134,8 +144,12 @@ nlohmann::json read_checkpoint(fem::Function<double>& u, const std::string& dire
       ++missing;
       continue;
     }
-    for (int c = 0; c < bs; ++c)
-      values[bs * i + c] = all[it->second + c];
+    for (std::int64_t f = 0; f < n_fields; ++f)
+    {
+      std::span<double> values = fields[f]->x()->mutable_array();
+      for (int c = 0; c < bs; ++c)
+        values[bs * i + c] = all[it->second + f * bs + c];
+    }
   }
   std::int64_t total = 0;
   MPI_Allreduce(&missing, &total, 1, MPI_INT64_T, MPI_SUM, V.mesh()->comm());
@@ -143,7 +157,8 @@ nlohmann::json read_checkpoint(fem::Function<double>& u, const std::string& dire
     throw InputError(bin + ": " + std::to_string(total)
                      + " nodes of this mesh are not in the checkpoint (was the mesh or the "
                        "element degree changed?)");
-  u.x()->scatter_fwd();
+  for (const auto& f : fields)
+    f->x()->scatter_fwd();
   return state;
 }
 

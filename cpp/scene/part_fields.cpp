@@ -128,7 +128,7 @@ void set_fibres(const FibreSpec& spec, const SceneModel& model, MuscleProblem& p
   {
     try
     {
-      // the potential over the whole mesh, fibres on the part's cells
+      // the potential and the fibres on the part's cells
       const LaplaceFibres fibres = laplace_fibres(
           gm.mesh, *gm.facet_tags, model.surface(spec.from, spec.where),
           model.surface(spec.to, spec.where), problem.fibre()->function_space(),

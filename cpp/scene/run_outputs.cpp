@@ -1,15 +1,44 @@
 #include "run_outputs.h"
 
 #include "../common/application.h"
+#include "../common/errors.h"
+#include "../fem/eigenfrequencies.h"
+#include "../fem/generalized_alpha.h"
 #include "checkpoint.h"
 #include "scene_model.h"
 #include "series_quantities.h"
 
+#include <cmath>
 #include <cstdio>
 #include <dolfinx/common/MPI.h>
 
 namespace muscle
 {
+
+void write_natural_frequencies(const SceneModel& model, NonlinearSolver& solver,
+                               const RunOptions& options)
+{
+  if (!model.dynamics)
+    throw InputError("--modes needs the mass: a dynamic scene ('dynamics: {method: "
+                     "generalized_alpha}' and every part's density)");
+  const std::vector<double> omega = natural_frequencies(
+      solver.assemble_tangent(), model.dynamics->mass(), model.constraint.get(), options.modes);
+  nlohmann::json modes = nlohmann::json::array();
+  for (std::size_t i = 0; i < omega.size(); ++i)
+  {
+    const double f = omega[i] / (2 * M_PI);
+    modes.push_back({{"mode", i + 1}, {"frequency_hz", f}, {"angular_frequency", omega[i]},
+                     {"period_s", 1 / f}});
+    if (!options.quiet and is_root())
+      std::printf("mode %zu: %.6g Hz (period %.6g s)\n", i + 1, f, 1 / f);
+  }
+  if (is_root())
+    std::ofstream(options.out + "/modes.json") << nlohmann::json{{"modes", modes}}.dump(1)
+                                                 << "\n";
+  if (omega.size() < std::size_t(options.modes))
+    throw SolveError("--modes " + std::to_string(options.modes) + ": SLEPc converged only "
+                     + std::to_string(omega.size()) + " eigenvalues");
+}
 
 RunOutputs::RunOutputs(const Scene& scene, const SceneModel& model, const RunOptions& options,
                        RunProgress& progress, SeriesQuantities& series,
@@ -53,7 +82,7 @@ bool RunOutputs::step(const StepRecord& r)
   if (step % _scene.output.fields_every == 0 or step == _steps)
     _fields.write(r.t);
   if (step % _scene.output.checkpoint_every == 0 or step == _steps)
-    write_checkpoint(*_model.problem().u(), _options.out,
+    write_checkpoint(_model.state(), _options.out,
                      _progress.checkpoint_state(_scene, r, elapsed));
   _output_time += seconds_since(output_start);
   return true;

@@ -28,6 +28,11 @@ struct RunSummary
   std::string input_error; ///< a formula gone bad at a sub-step
 };
 
+/// --modes: the lowest options.modes natural frequencies of the model at the
+/// start (its tangent and mass), printed and written to options.out/modes.json.
+void write_natural_frequencies(const SceneModel& model, NonlinearSolver& solver,
+                               const RunOptions& options);
+
 /// What a run writes into options.out: series.csv (a row per converged output
 /// step), the fields (fields.xdmf, or fields_from_stepN.xdmf when resumed: a
 /// killed run leaves its HDF5 file unclosed), a checkpoint, a progress line,

@@ -48,10 +48,11 @@ std::vector<std::string> series_columns(const Scene& scene)
   return columns;
 }
 
-RunProgress resume(const Scene& scene, dolfinx::fem::Function<double>& u,
+RunProgress resume(const Scene& scene,
+                   const std::vector<std::shared_ptr<dolfinx::fem::Function<double>>>& fields,
                    const RunOptions& options)
 {
-  const nlohmann::json state = read_checkpoint(u, options.out);
+  const nlohmann::json state = read_checkpoint(fields, options.out);
   if (state.value("scene_fingerprint", std::size_t(0)) != fingerprint(scene.physics))
     throw InputError("--resume: the scene's mesh, element, parts (materials, data files) or "
                      "boundary changed since the checkpoint in " + options.out + " was "

@@ -32,10 +32,12 @@ struct RunProgress
 /// The names of the series columns, as series.csv and a checkpoint list them.
 std::vector<std::string> series_columns(const Scene& scene);
 
-/// --resume: u and the progress from the checkpoint in options.out; series.csv
-/// cut back to the checkpoint's step.  InputError if the scene's physics or series
-/// columns changed since the checkpoint.
-RunProgress resume(const Scene& scene, dolfinx::fem::Function<double>& u,
+/// --resume: the state `fields` (u, and the dynamic state) and the progress
+/// from the checkpoint in options.out; series.csv cut back to the checkpoint's
+/// step.  InputError if the scene's physics or series columns changed since
+/// the checkpoint.
+RunProgress resume(const Scene& scene,
+                   const std::vector<std::shared_ptr<dolfinx::fem::Function<double>>>& fields,
                    const RunOptions& options);
 
 } // namespace muscle

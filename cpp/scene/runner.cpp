@@ -9,6 +9,7 @@
 #include "series_quantities.h"
 
 #include <algorithm>
+#include <dolfinx/la/Vector.h>
 #include <filesystem>
 
 namespace muscle
@@ -27,6 +28,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
   add_ties(scene, model);
   add_contacts(scene, model, options.quiet);
   add_loads(scene, model);
+  add_dynamics(scene, model, options.quiet);
   SeriesQuantities series(scene, model);
   RunSummary summary;
   summary.built = describe_built(scene, model, options.quiet);
@@ -36,7 +38,7 @@ void run_scene(const Scene& scene, const RunOptions& options)
   // Where the stepping starts: the scene's start, or the checkpoint
   RunProgress progress{scene.time};
   if (options.resume)
-    progress = resume(scene, *model.problem().u(), options);
+    progress = resume(scene, model.state(), options);
   // The inputs at every output time before the first solve: a negative
   // activation at t = 0.1 s should not cost a run to 0.1 s
   const TimeSteppingOptions& stepping = progress.stepping;
@@ -55,6 +57,23 @@ void run_scene(const Scene& scene, const RunOptions& options)
   solver.restore_displacement();
   QuasiStaticStepper stepper(
       model.problem(), solver, [&](double t) { set_time(scene, model, t); }, stepping);
+  if (model.dynamics)
+  {
+    // the initial acceleration from the forces at the start, or the checkpoint's
+    if (options.resume)
+      model.dynamics->restore();
+    else
+    {
+      dolfinx::la::Vector<double> r0(model.problem().u()->x()->map(),
+                                     model.problem().u()->x()->bs());
+      solver.assemble_nodal_forces(r0);
+      model.dynamics->start(r0, model.constraint.get());
+    }
+    solver.add_term(model.dynamics);
+    stepper.set_dynamics(model.dynamics.get());
+  }
+  if (options.modes > 0)
+    return write_natural_frequencies(model, solver, options);
 
   // Step to the end, with the outputs of every converged step; a formula gone
   // bad at a sub-step stops the run like a failed step

@@ -14,6 +14,7 @@ struct RunOptions
   bool resume = false;        ///< continue from out/checkpoint.*
   int measure_assembly = 0;   ///< time this many assemblies before the run
   bool check_only = false;    ///< build everything (mesh, surfaces), solve nothing
+  int modes = 0;              ///< > 0: the lowest natural frequencies, then stop
 };
 
 /// Build what the scene needs -- and nothing else -- and run it.  Writes

@@ -158,7 +158,9 @@ struct SeriesQuantity
     contact_area,    ///< area in contact [mm^2]
     max_pressure,    ///< largest contact pressure [kPa]
     max_penetration, ///< largest penetration [mm]
-    rotation         ///< rotation vector of a part's best rigid fit [degrees]
+    rotation,        ///< rotation vector of a part's best rigid fit [degrees]
+    kinetic_energy,  ///< 1/2 v^T M v (dynamic scenes) [mJ = mN mm]
+    strain_energy    ///< the laws' energy over the body [mJ]
   } kind;
   int pair = 0; ///< contact quantities: index into Scene::contacts
   std::string part; ///< rotation: the part's name
@@ -197,6 +199,14 @@ struct OutputSpec
   int checkpoint_every = 1;
 };
 
+/// Structural dynamics: the generalized-alpha method (cpp/fem/generalized_alpha.h)
+/// with every part's density.  A scene without it is quasi-static.
+struct DynamicsSpec
+{
+  double rho_inf = 1; ///< spectral radius at infinite frequency, [0, 1]; 1: no damping
+  SceneLocation where;
+};
+
 struct Scene
 {
   std::string file;   ///< the scene file
@@ -213,6 +223,7 @@ struct Scene
   std::vector<TieSpec> ties;
   std::vector<ContactSpec> contacts;
   TimeSteppingOptions time;
+  std::optional<DynamicsSpec> dynamics;
   NewtonOptions newton;
   bool line_search_given = false; ///< solver.line_search in the file (else the default)
   std::vector<std::string> petsc_options;

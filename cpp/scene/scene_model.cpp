@@ -69,6 +69,15 @@ std::vector<std::int32_t> SceneModel::fixed_dofs() const
   return fixed;
 }
 
+std::vector<std::shared_ptr<fem::Function<double>>> SceneModel::state() const
+{
+  std::vector<std::shared_ptr<fem::Function<double>>> fields = {problem().u()};
+  if (dynamics)
+    for (auto& f : dynamics->state())
+      fields.push_back(f);
+  return fields;
+}
+
 std::int64_t SceneModel::unknowns() const
 {
   return constraint ? constraint->reduced_size()
@@ -289,6 +298,72 @@ void add_contacts(const Scene& scene, SceneModel& model, bool quiet)
   }
 }
 
+namespace
+{
+/// Every part's density on its local cells (owned and ghost).
+std::vector<double> cell_densities(const Scene& scene, const SceneModel& model)
+{
+  auto cell_map = model.gm.mesh->topology().index_map(3);
+  std::vector<double> density(cell_map->size_local() + cell_map->num_ghosts(), 0.0);
+  for (std::size_t p = 0; p < model.body.size(); ++p)
+    for (std::int32_t c : model.body[p]->cells())
+      density[c] = scene.parts[p].density;
+  return density;
+}
+
+/// The shortest time over which an input of the scene changes (a ramp's
+/// duration, a table's shortest interval; 0 if none), and what it is.
+std::pair<double, std::string> shortest_input_time(const Scene& scene)
+{
+  std::pair<double, std::string> shortest{0, ""};
+  auto consider = [&](const TimeFunction& f, const std::string& what)
+  {
+    double tau = 0;
+    if (f.kind == TimeFunction::Kind::ramp)
+      tau = f.duration;
+    else if (f.kind == TimeFunction::Kind::table)
+      for (std::size_t i = 1; i < f.table.size(); ++i)
+      {
+        const double dt = f.table[i][0] - f.table[i - 1][0];
+        tau = tau > 0 ? std::min(tau, dt) : dt;
+      }
+    if (tau > 0 and (shortest.first == 0 or tau < shortest.first))
+      shortest = {tau, what};
+  };
+  for (const LoadSpec& l : scene.loads)
+    consider(l.value, l.where.key);
+  for (const BoundaryCondition& bc : scene.boundary)
+    if (bc.kind == BoundaryCondition::Kind::displacement)
+      consider(bc.value, bc.where.key);
+  for (const Part& part : scene.parts)
+    if (part.active)
+      consider(part.activation_time, part.where.key + ".activation.time");
+  return shortest;
+}
+} // namespace
+
+void add_dynamics(const Scene& scene, SceneModel& model, bool quiet)
+{
+  if (!scene.dynamics)
+    return;
+  model.dynamics = std::make_shared<GeneralizedAlpha>(
+      model.problem().u(), cell_densities(scene, model), model.bcs, scene.dynamics->rho_inf);
+  // a second-order method follows an input's change with a few percent error
+  // from about 10 steps over it on
+  const auto [tau, what] = shortest_input_time(scene);
+  if (tau > 0 and scene.time.dt > tau / 10)
+  {
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "time.step %.3g s resolves %s (changing over %.3g s) with fewer than 10 "
+                  "steps: generalized-alpha misses its dynamics; use time.step <= %.3g s",
+                  scene.time.dt, what.c_str(), tau, tau / 10);
+    model.warnings.push_back(scene.dynamics->where.text() + ": " + text);
+    if (!quiet and is_root())
+      std::fprintf(stderr, "warning: %s\n", model.warnings.back().c_str());
+  }
+}
+
 void add_loads(const Scene& scene, SceneModel& model)
 {
   if (scene.loads.empty())
@@ -302,12 +377,7 @@ void add_loads(const Scene& scene, SceneModel& model)
     auto value = [&l](double t) { return l.value(t); };
     if (l.kind == LoadSpec::Kind::gravity)
     {
-      auto cell_map = mesh.topology().index_map(3);
-      std::vector<double> density(cell_map->size_local() + cell_map->num_ghosts(), 0.0);
-      for (std::size_t p = 0; p < model.body.size(); ++p)
-        for (std::int32_t c : model.body[p]->cells())
-          density[c] = scene.parts[p].density;
-      model.loads->add_gravity(l.vector, value, density);
+      model.loads->add_gravity(l.vector, value, cell_densities(scene, model));
       continue;
     }
     const auto facets = model.facets(l.surface, l.where);

@@ -5,6 +5,7 @@
 
 #include "../fem/constraint.h"
 #include "../fem/contact.h"
+#include "../fem/generalized_alpha.h"
 #include "../fem/loads.h"
 #include "../fem/muscle_problem.h"
 #include "../fem/tie_constraint.h"
@@ -60,6 +61,8 @@ struct SceneModel
 
   // add_loads
   std::unique_ptr<Loads> loads; ///< null without loads
+  // add_dynamics
+  std::shared_ptr<GeneralizedAlpha> dynamics; ///< null: quasi-static
 
   /// The first part: it holds the displacement.
   MuscleProblem& problem() const { return *problems[0]; }
@@ -75,6 +78,8 @@ struct SceneModel
   std::vector<std::int32_t> fixed_dofs() const;
   /// Newton's unknowns (the reduced count under a constraint).
   std::int64_t unknowns() const;
+  /// The fields a checkpoint keeps: u, and the dynamic state.
+  std::vector<std::shared_ptr<dolfinx::fem::Function<double>>> state() const;
 };
 
 /// The local cells of a mesh, owned and ghost.
@@ -101,6 +106,9 @@ void add_contacts(const Scene& scene, SceneModel& model, bool quiet);
 
 /// External loads, forms of their own.
 void add_loads(const Scene& scene, SceneModel& model);
+/// The generalized-alpha integrator of a dynamic scene (none without
+/// `dynamics`); a warning if the time step cannot resolve a load's time scale.
+void add_dynamics(const Scene& scene, SceneModel& model, bool quiet);
 
 /// Activation, boundary values and loads at t, each checked: a user formula must
 /// never feed a negative activation or a NaN displacement to the solver.

@@ -729,7 +729,7 @@ SeriesQuantity read_quantity(const Entry& e)
                                           "displacement",    "stretch_ratio", "volume_change",
                                           "min_J",           "point",         "contact_force",
                                           "contact_area",    "max_pressure",  "max_penetration",
-                                          "rotation"};
+                                          "rotation",        "kinetic_energy", "strain_energy"};
   const std::string kind = e.required("quantity").choice(kinds);
   q.kind = static_cast<SeriesQuantity::Kind>(
       std::find(kinds.begin(), kinds.end(), kind) - kinds.begin());
@@ -814,10 +814,10 @@ Scene parse_scene(const std::string& text, const std::string& name,
     top.fail("a scene is a mapping with keys title, mesh, element, parts, boundary, time, "
              "solver, output; found " + top.shown());
   top.require_map(
-      {"title", "mesh", "element", "parts", "boundary", "time", "solver", "output", "loads",
-       "tie", "contact"});
+      {"title", "mesh", "element", "parts", "boundary", "time", "dynamics", "solver", "output",
+       "loads", "tie", "contact"});
   scene.title = top["title"].text(std::filesystem::path(name).stem().string());
-  for (const char* k : {"element", "parts", "boundary", "loads", "tie", "contact"})
+  for (const char* k : {"element", "parts", "boundary", "loads", "tie", "contact", "dynamics"})
     scene.physics += std::string(k) + ":\n" + YAML::Dump(root[k]) + "\n";
 
   // mesh and element
@@ -981,6 +981,27 @@ Scene parse_scene(const std::string& text, const std::string& name,
   scene.time.growth_factor = t["growth_factor"].number(1.5);
   if (!(scene.time.growth_factor >= 1))
     t["growth_factor"].fail("'" + t["growth_factor"].text() + "' must be >= 1");
+
+  // dynamics
+  const Entry d = top["dynamics"];
+  if (d.defined())
+  {
+    d.require_map({"method", "rho_inf"});
+    if (d["method"].defined())
+      d["method"].choice({"generalized_alpha"});
+    DynamicsSpec dynamics;
+    dynamics.where = d.where();
+    dynamics.rho_inf = d["rho_inf"].number(1);
+    if (!(dynamics.rho_inf >= 0 and dynamics.rho_inf <= 1))
+      d["rho_inf"].fail("'" + d["rho_inf"].text() + "' is outside [0, 1] (the spectral radius "
+                        "at infinite frequency: 1 damps nothing, 0 the most)");
+    for (std::size_t p = 0; p < scene.parts.size(); ++p)
+      if (!(scene.parts[p].density > 0))
+        d.fail("a dynamic scene needs the density of every part: parts[" + std::to_string(p)
+               + "] ('" + scene.parts[p].name + "') has none ('density: RHO' in kg/mm^3; "
+               "1 g/cm^3 = 1e-6)");
+    scene.dynamics = dynamics;
+  }
 
   // solver
   const Entry s = top["solver"];

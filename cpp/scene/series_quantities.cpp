@@ -2,6 +2,7 @@
 
 #include "../common/errors.h"
 #include "../fem/boundary.h"
+#include "../fem/generalized_alpha.h"
 #include "../fem/point_probe.h"
 #include "../fem/rigid_rotation.h"
 #include "scene_model.h"
@@ -89,6 +90,22 @@ SeriesQuantities::SeriesQuantities(const Scene& scene, const SceneModel& model)
       break;
     case K::point:
       _measure.push_back(point(q));
+      break;
+    case K::kinetic_energy:
+      if (!model.dynamics)
+        throw InputError(q.where.text() + ": kinetic_energy needs a dynamic scene ('dynamics: "
+                         "{method: generalized_alpha}' and every part's density)");
+      _measure.push_back([&model] { return model.dynamics->kinetic_energy(); });
+      break;
+    case K::strain_energy:
+      _measure.push_back(
+          [&model]
+          {
+            double energy = 0;
+            for (const MuscleProblem* part : model.body)
+              energy += part->strain_energy();
+            return energy;
+          });
       break;
     }
   }

@@ -48,6 +48,10 @@ int main(int argc, char** argv)
     app.add_option("--measure-assembly", options.measure_assembly,
                    "time N residual/Jacobian assemblies of the scene's forms and of the plain "
                    "passive forms before the run");
+    app.add_option("--modes", options.modes,
+                   "write the N lowest natural frequencies at the start (SLEPc; a dynamic "
+                   "scene) to OUT/modes.json and stop")
+        ->check(CLI::Range(1, 1000));
     if (!parse_command_line(app, std::move(args)))
       return 0;
     Scene scene = read_scene(path, overrides);

@@ -106,8 +106,10 @@ def build_fbar_variant(law, active, cell, degree, qdeg):
 
     points, _ = create_quadrature(CELLS[cell], qdeg, "default")
     H_post = fbar_displacement_gradient(grad(u), J0_field)
-    P_post, _, kin, _, _ = stress_and_energy(law, lambda: variable(H_post), fibre, p, level,
-                                              taylor)
+    P_post, psi_post, kin, _, _ = stress_and_energy(law, lambda: variable(H_post), fibre, p,
+                                                     level, taylor)
+    # the strain energy of the converged state (fbar_J0 = J0(u) there)
+    names.export(psi_post * measure, "energy")
     if taylor is not None:
         names.export((kin.fibre_stretch, points), "fibre_stretch")
     post = as_vector([kin.fibre_stretch, fibre_cauchy_stress(kin, P_post),

@@ -7,6 +7,8 @@
   gravity    body force rho g (density DG0 per cell, kg/mm^3; g in mm/s^2):
              R = -int rho g . v dV
   area       functional: current area of the surface tagged 1 (Nanson: |cof(F) N| dA)
+  mass       bilinear form int rho du . v dV (consistent mass of structural dynamics,
+             cpp/fem/generalized_alpha.h), density DG0 as for gravity
 
 C++ (cpp/fem/loads.cpp) tags each load's facets 1 and sets the constants per time.
 """
@@ -41,6 +43,9 @@ def build_load_variant(cell, degree):
     gravity = names.name(Constant(ucell, shape=(3,)), "gravity")
     names.export(-density * inner(gravity, v) * dx(metadata={"quadrature_degree": qdeg}),
                  "gravity_residual")
+
+    # exact for the element's mass (degree 2 p is within the default rule)
+    names.export(density * inner(du, v) * dx(metadata={"quadrature_degree": qdeg}), "mass")
 
     n_current = dot(cofac(F), N)
     names.export(sqrt(inner(n_current, n_current)) * surface, "area")

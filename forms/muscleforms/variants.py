@@ -104,7 +104,7 @@ def stress_and_energy(law, H_of, fibre, p, level, taylor):
 
 
 def build_fe_variant(law, active, cell, degree, qdeg, vqdeg=None):
-    """Residual, Jacobian, volume functional and quadrature-point expressions.
+    """Residual, Jacobian, volume and strain-energy functionals, quadrature-point expressions.
 
     vqdeg (if not None or qdeg): the law's volumetric_stiff_part is integrated with
     this lower degree and the rest with qdeg (anti-locking Q1).
@@ -136,6 +136,7 @@ def build_fe_variant(law, active, cell, degree, qdeg, vqdeg=None):
     names.export(residual, "residual")
     names.export(derivative(residual, u, du), "jacobian")
     names.export(kin.J * measure, "volume")
+    names.export(psi * measure, "energy")
 
     points, _ = create_quadrature(CELLS[cell], qdeg, "default")
     if taylor is not None:

@@ -24,13 +24,10 @@ a resumed run equals an uninterrupted one, the error names what the table says.
 import collections
 import csv
 import functools
-import json
 import math
 import os
-import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -38,7 +35,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 SCENES = os.path.join(ROOT, "demos", "scenes")
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                                 "support"))
-from checks import all_finite, finite_json, read_json  # noqa: E402
+from checks import all_finite, finite_json, kill_after, read_json  # noqa: E402
 
 
 def run(build, args, ranks=1, timeout=None):
@@ -398,27 +395,6 @@ def test_broken(build, scratch, what, base, old, new, fragments, line_check):
 # ---------------------------------------------------------------------------
 # resume after kill
 # ---------------------------------------------------------------------------
-def kill_after(build, scene, out, step, ranks=1, extra=()):
-    command = [os.path.join(build, "muscle-run"), scene, "--out", out, "--quiet"] + list(extra)
-    if ranks > 1:
-        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + command
-    p = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                         start_new_session=True)
-    state = None
-    while p.poll() is None:
-        try:
-            with open(os.path.join(out, "checkpoint.json")) as f:
-                state = json.load(f)
-            if state["step"] >= step:
-                break
-        except (OSError, ValueError):
-            pass
-        time.sleep(0.02)
-    os.killpg(p.pid, signal.SIGKILL)
-    p.wait()
-    return state
-
-
 def compare(reference, resumed, what):
     """Two checks, (ok, message) each: the resumed final values and series.csv equal
     the uninterrupted run's."""

@@ -44,3 +44,30 @@ def series_rows(out):
     with open(os.path.join(out, "series.csv")) as f:
         lines = [line.strip().split(",") for line in f if line.strip()]
     return [dict(zip(lines[0], map(float, row))) for row in lines[1:]]
+
+
+def kill_after(build, scene, out, step, ranks=1, extra=()):
+    """Start build/muscle-run SCENE --out OUT and kill it once its checkpoint has reached
+    output step `step`; the checkpoint state it saw last."""
+    import json
+    import signal
+    import subprocess
+    import time
+    command = [os.path.join(build, "muscle-run"), scene, "--out", out, "--quiet"] + list(extra)
+    if ranks > 1:
+        command = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)] + command
+    p = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True)
+    state = None
+    while p.poll() is None:
+        try:
+            with open(os.path.join(out, "checkpoint.json")) as f:
+                state = json.load(f)
+            if state["step"] >= step:
+                break
+        except (OSError, ValueError):
+            pass
+        time.sleep(0.02)
+    os.killpg(p.pid, signal.SIGKILL)
+    p.wait()
+    return state
