@@ -148,7 +148,9 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
     while args.reuse and running_elsewhere(out):  # a run left by a stopped driver
         time.sleep(5)
     if args.reuse and not os.path.exists(record_path) and os.path.exists(summary_path):
-        adopted = adopt(name, out, dict(solver=solver, ranks=np, sets=list(sets),
+        adopted = adopt(name, out, dict(model=model, case=case, cell=cell, degree=degree,
+                                        element=element_name(cell, degree, fbar), fbar=fbar,
+                                        n=n, dt=dt, solver=solver, ranks=np, sets=list(sets),
                                         petsc=list(petsc), group=group))
         if adopted:
             return adopted
@@ -206,10 +208,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
     if os.path.exists(summary_path) and os.path.getmtime(summary_path) >= start - 1:
         with open(summary_path) as f:
             summary = json.load(f)
-        record.update({k: summary.get(k) for k in (
-            "F33", "epsilon", "volume_change", "wall_time", "newton_iterations",
-            "linear_iterations", "cutbacks", "steps", "unknowns", "cells", "nodes",
-            "completed")})
+        record.update(measured(summary))
     if os.path.exists(time_file):
         try:
             with open(time_file) as f:
@@ -234,6 +233,17 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
     with open(record_path, "w") as f:
         json.dump(record, f, indent=1)
     return record
+
+
+def measured(summary):
+    """What a fusiform run's summary.json (the scene runner's) measured, as a record's
+    keys: the final series values, Newton's unknowns and the counts."""
+    final = summary.get("final", {})
+    return {"F33": final.get("F33"), "epsilon": final.get("epsilon"),
+            "volume_change": final.get("volume_change"),
+            "unknowns": summary.get("built", {}).get("unknowns"),
+            **{k: summary.get(k) for k in ("wall_time", "newton_iterations", "linear_iterations",
+                                           "cutbacks", "steps", "cells", "nodes", "completed")}}
 
 
 def binary_mtime(args):
@@ -270,24 +280,15 @@ def near_null_space_markers(solver, case):
 
 def adopt(name, out, base):
     """A run whose driver was stopped but which finished by itself: its summary and
-    /usr/bin/time output are kept; the load average is the one at adoption."""
+    /usr/bin/time output are kept; the load average is the one at adoption.  `base`:
+    the run's settings (model, case, element, ..., as the driver asked for them)."""
     with open(os.path.join(out, "summary.json")) as f:
         summary = json.load(f)
     if not summary.get("completed") or not os.path.exists(os.path.join(out, "time.txt")):
         return None
-    record = {"name": name, "model": summary["model"], "case": summary["case"],
-              "cell": summary["cell"], "degree": summary["degree"],
-              "element": element_name(summary["cell"], summary["degree"],
-                                      summary.get("fbar", False)),
-              "fbar": summary.get("fbar", False),
-              "n": summary["refinement"], "dt": summary["dt"], **base,
-              **near_null_space_markers(base["solver"], summary["case"]),
+    record = {"name": name, **base, **near_null_space_markers(base["solver"], base["case"]),
               "elapsed": summary["wall_time"], "loadavg_before": loadavg(),
-              "loadavg_after": loadavg(), "adopted": True}
-    for k in ("F33", "epsilon", "volume_change", "wall_time", "newton_iterations",
-              "linear_iterations", "cutbacks", "steps", "unknowns", "cells", "nodes",
-              "completed"):
-        record[k] = summary.get(k)
+              "loadavg_after": loadavg(), "adopted": True, **measured(summary)}
     with open(os.path.join(out, "time.txt")) as f:
         words = f.read().split()
     record["peak_rss_MiB"] = round(int(words[0]) / 1024, 1)
