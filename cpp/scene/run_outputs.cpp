@@ -143,6 +143,8 @@ void RunOutputs::finish(const RunSummary& s)
       summary["final"][scene.output.series[k].name] = _last[k];
     if (!s.assembly.is_null())
       summary["assembly"] = s.assembly;
+    if (!s.condition.is_null())
+      summary.update(s.condition);
     if (!s.input_error.empty())
       summary["failure"] = {{"reason", s.input_error}};
     if (s.failure)

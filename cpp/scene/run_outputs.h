@@ -26,6 +26,7 @@ struct RunSummary
   double stepping_s = 0;   ///< the stepper's run, outputs included
   std::optional<StepFailure> failure;
   std::string input_error; ///< a formula gone bad at a sub-step
+  nlohmann::json condition; ///< condition_number, eigenvalue_max, _min (null: not asked)
 };
 
 /// --modes: the lowest options.modes natural frequencies of the model at the

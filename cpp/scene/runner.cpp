@@ -1,6 +1,8 @@
 #include "runner.h"
 
+#include "../common/command_line.h"
 #include "../common/errors.h"
+#include "../fem/condition_number.h"
 #include "assembly_timing.h"
 #include "clock.h"
 #include "run_outputs.h"
@@ -11,14 +13,61 @@
 #include <algorithm>
 #include <dolfinx/la/Vector.h>
 #include <filesystem>
+#include <petscsys.h>
 
 namespace muscle
 {
+
+namespace
+{
+/// The scene's PETSc options (solver.petsc), each unless the command line gave it.
+void set_petsc_options(const std::vector<std::string>& words)
+{
+  for (std::size_t i = 0; i < words.size(); ++i)
+  {
+    if (words[i][0] != '-')
+      continue;
+    const bool has_value = i + 1 < words.size() and words[i + 1][0] != '-';
+    PetscBool set = PETSC_FALSE;
+    PetscOptionsHasName(nullptr, nullptr, words[i].c_str(), &set);
+    if (!set)
+      PetscOptionsSetValue(nullptr, words[i].c_str(), has_value ? words[i + 1].c_str() : nullptr);
+  }
+}
+
+/// The inertia term joins the solver and the stepper, with the acceleration of
+/// the forces at the start (M a_0 = -r_0) or the checkpoint's state.
+void start_dynamics(SceneModel& model, NonlinearSolver& solver, QuasiStaticStepper& stepper,
+                    bool resume)
+{
+  if (resume)
+    model.dynamics->restore();
+  else
+  {
+    const auto& u = *model.problem().u()->x();
+    dolfinx::la::Vector<double> r0(u.map(), u.bs());
+    solver.assemble_nodal_forces(r0);
+    model.dynamics->start(r0, model.constraint.get());
+  }
+  solver.add_term(model.dynamics);
+  stepper.set_dynamics(model.dynamics.get());
+}
+
+/// The condition number of the last Newton matrix, for summary.json.
+nlohmann::json condition_number(NonlinearSolver& solver)
+{
+  const ConditionEstimate c = estimate_condition_number(solver.system_matrix());
+  return {{"condition_number", c.condition},
+          {"eigenvalue_max", c.lambda_max},
+          {"eigenvalue_min", c.lambda_min}};
+}
+} // namespace
 
 void run_scene(const Scene& scene, const RunOptions& options)
 {
   const auto start = Clock::now();
   std::filesystem::create_directories(options.out);
+  set_petsc_options(scene.petsc_options);
 
   // The model: only what the scene needs
   SceneModel model = read_mesh(scene);
@@ -58,26 +107,14 @@ void run_scene(const Scene& scene, const RunOptions& options)
   QuasiStaticStepper stepper(
       model.problem(), solver, [&](double t) { set_time(scene, model, t); }, stepping);
   if (model.dynamics)
-  {
-    // the initial acceleration from the forces at the start, or the checkpoint's
-    if (options.resume)
-      model.dynamics->restore();
-    else
-    {
-      dolfinx::la::Vector<double> r0(model.problem().u()->x()->map(),
-                                     model.problem().u()->x()->bs());
-      solver.assemble_nodal_forces(r0);
-      model.dynamics->start(r0, model.constraint.get());
-    }
-    solver.add_term(model.dynamics);
-    stepper.set_dynamics(model.dynamics.get());
-  }
+    start_dynamics(model, solver, stepper, options.resume);
   if (options.modes > 0)
     return write_natural_frequencies(model, solver, options);
 
   // Step to the end, with the outputs of every converged step; a formula gone
   // bad at a sub-step stops the run like a failed step
   RunOutputs outputs(scene, model, options, progress, series, solver, start);
+  const int first_step = progress.step;
   const auto stepping_start = Clock::now();
   try
   {
@@ -90,6 +127,8 @@ void run_scene(const Scene& scene, const RunOptions& options)
   summary.stepping_s = seconds_since(stepping_start);
   if (summary.failure)
     name_activation_scales(scene, model, *summary.failure);
+  if (options.condition_number and progress.step > first_step)
+    summary.condition = condition_number(solver);
 
   // The last converged state is kept whatever happened
   outputs.finish(summary);
@@ -98,6 +137,23 @@ void run_scene(const Scene& scene, const RunOptions& options)
                      + options.out + ")");
   if (summary.failure)
     throw SolveError(summary.failure->message(progress.step + 1, options.out));
+}
+
+CLI::Option* add_run_options(CLI::App& app, RunOptions& options)
+{
+  CLI::Option* out = app.add_option("--out", options.out, "output directory");
+  app.add_flag("--resume", options.resume,
+               "continue a stopped run from the checkpoint in the output directory");
+  app.add_flag("--quiet", options.quiet, "no progress lines");
+  app.add_flag("--check", options.check_only,
+               "read the scene and build the mesh, surfaces and forms; solve nothing");
+  app.add_option("--measure-assembly", options.measure_assembly,
+                 "time N residual/Jacobian assemblies of the scene's forms and of the plain "
+                 "passive forms before the run");
+  app.add_flag("--condition-number", options.condition_number,
+               "after the run: the condition number of the last Newton matrix (SLEPc) into "
+               "summary.json");
+  return out;
 }
 
 } // namespace muscle

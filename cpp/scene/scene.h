@@ -2,6 +2,7 @@
 
 #include "../fem/nonlinear_solver.h"
 #include "../fem/time_stepping.h"
+#include "../material/activation_kernels.h"
 #include "../material/parameters.h"
 #include "expression.h"
 
@@ -226,6 +227,8 @@ struct Scene
   std::optional<DynamicsSpec> dynamics;
   NewtonOptions newton;
   bool line_search_given = false; ///< solver.line_search in the file (else the default)
+  /// WKM/GIANT activation root finder: relative step tolerance (solver.root_tolerance)
+  double root_tolerance = default_root_tolerance;
   std::vector<std::string> petsc_options;
   OutputSpec output;
 };

@@ -199,6 +199,7 @@ void add_parts(const Scene& scene, SceneModel& model)
       throw InputError(scene.file + ": element: " + e.what());
     }
     MuscleProblem& problem = *model.problems.back();
+    problem.set_root_tolerance(scene.root_tolerance);
     model.body.push_back(&problem);
     set_fibres(part.fibres, model, problem);
     model.scales.push_back(part.active ? std::make_unique<ScaleField>(

@@ -1008,7 +1008,8 @@ Scene parse_scene(const std::string& text, const std::string& name,
   if (s.defined())
   {
     s.require_map({"linear", "line_search", "rtol", "atol", "max_iterations",
-                   "stagnation_window", "petsc"});
+                   "stagnation_window", "linear_rtol", "fbar_cell_unknowns", "root_tolerance",
+                   "petsc"});
     scene.newton.linear_solver = s["linear"].defined()
                                      ? s["linear"].choice(NewtonOptions::linear_solvers())
                                      : "lu";
@@ -1022,6 +1023,12 @@ Scene parse_scene(const std::string& text, const std::string& name,
     scene.newton.max_iterations = s["max_iterations"].integer(25, 1, 1000);
     scene.newton.stagnation_window
         = s["stagnation_window"].integer(scene.newton.stagnation_window, 0, 1000);
+    scene.newton.linear_rtol = s["linear_rtol"].positive(scene.newton.linear_rtol);
+    scene.newton.fbar_cell_unknowns = s["fbar_cell_unknowns"].flag(true);
+    scene.root_tolerance = s["root_tolerance"].number(scene.root_tolerance);
+    if (!(scene.root_tolerance >= 1e-16 and scene.root_tolerance < 1))
+      s["root_tolerance"].fail("'" + s["root_tolerance"].text() + "' must be from 1e-16 "
+                               "(round-off; smaller never stops) to below 1");
     if (s["petsc"].defined())
     {
       std::istringstream words(s["petsc"].text());

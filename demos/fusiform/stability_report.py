@@ -79,6 +79,7 @@ def main():
             wall = time.time() - start
             summary_path = os.path.join(out, "summary.json")
             summary = json.load(open(summary_path)) if os.path.exists(summary_path) else {}
+            final = summary.get("final", {})
             message = (result.stderr.strip().splitlines() or [""])[-1]
             record = {
                 "model": model, "extreme": name, "options": " ".join(options),
@@ -87,11 +88,12 @@ def main():
                 "steps": summary.get("steps"),
                 "newton": (summary.get("newton_iterations") or 0)
                 + summary.get("failure", {}).get("newton_iterations", 0),
-                "cutbacks": (summary.get("cutbacks") or 0) + summary.get("failure", {}).get("cutbacks", 0), "epsilon": summary.get("epsilon"),
-                "volume_change": summary.get("volume_change"), "wall": wall,
+                "cutbacks": (summary.get("cutbacks") or 0) + summary.get("failure", {}).get("cutbacks", 0), "epsilon": final.get("epsilon"),
+                "volume_change": final.get("volume_change"), "wall": wall,
                 "message": message if result.returncode else "",
                 "outputs_finite": all_finite(os.path.join(out, "series.csv"))
-                and all(math.isfinite(v) for v in summary.values() if isinstance(v, float)),
+                and all(math.isfinite(v) for v in [*summary.values(), *final.values()]
+                        if isinstance(v, float)),
             }
             records.append(record)
             print(f"{NAMES[model]:6s} {name:42s} exit {result.returncode}  "

@@ -35,13 +35,19 @@ COLOURS = {"ble": "tab:blue", "wkm": "tab:orange", "giant": "tab:green", "combi"
 KAPPA_REF = {"ble": 10000.0, "wkm": 1000.0, "giant": 1000.0, "combi": 1000.0}
 
 
+def read_summary(path):
+    """summary.json with its final series values (F33, epsilon, ...) at the top level."""
+    with open(path) as f:
+        summary = json.load(f)
+    return {**summary, **summary.get("final", {})}
+
+
 def run(args, name, options):
     """Run the demo once into OUT/name; return its summary (and the series)."""
     out = os.path.join(args.out, name)
     summary_path = os.path.join(out, "summary.json")
     if args.reuse and os.path.exists(summary_path):
-        with open(summary_path) as f:
-            summary = json.load(f)
+        summary = read_summary(summary_path)
         if summary.get("completed"):
             print(f"  reuse {out}")
             return summary, read_series(out)
@@ -63,8 +69,7 @@ def run(args, name, options):
     print(f"    {time.time() - start:.1f} s", flush=True)
     if not os.path.exists(summary_path):
         return {"completed": False}, None
-    with open(summary_path) as f:
-        return json.load(f), read_series(out)
+    return read_summary(summary_path), read_series(out)
 
 
 def read_series(out):

@@ -1,7 +1,8 @@
 // muscle-run: run a muscle scene described in a YAML file.
 //
 //   muscle-run SCENE.yaml [--out DIR] [--resume] [--quiet] [--check]
-//              [--set KEY=VALUE ...] [--t-end T] [--measure-assembly N] [PETSc options]
+//              [--set KEY=VALUE ...] [--t-end T] [--measure-assembly N]
+//              [--condition-number] [PETSc options]
 //
 // Reads and checks the whole scene before building anything, builds only what
 // the scene needs, and writes DIR/series.csv, fields.xdmf, summary.json,
@@ -16,7 +17,6 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <petscsys.h>
 
 using namespace muscle;
 
@@ -29,12 +29,7 @@ int main(int argc, char** argv)
                  "are passed through; the scene's solver.petsc options come first."};
     app.add_option("scene", path, "scene file, e.g. demos/scenes/fusiform_isometric.yaml")
         ->required();
-    app.add_option("--out", options.out, "output directory (default: out/<scene name>)");
-    app.add_flag("--resume", options.resume,
-                 "continue a stopped run from the checkpoint in the output directory");
-    app.add_flag("--quiet", options.quiet, "no progress lines");
-    app.add_flag("--check", options.check_only,
-                 "read the scene and build the mesh, surfaces and forms; solve nothing");
+    add_run_options(app, options)->description("output directory (default: out/<scene name>)");
     std::vector<std::string> overrides;
     app.add_option("--set", overrides,
                    "replace a scene value, KEY a dotted path with list indices, e.g. "
@@ -45,9 +40,6 @@ int main(int argc, char** argv)
     double t_end = -1;
     app.add_option("--t-end", t_end, "stop at this time instead of the scene's time.end "
                    "(a short look at a long scene)");
-    app.add_option("--measure-assembly", options.measure_assembly,
-                   "time N residual/Jacobian assemblies of the scene's forms and of the plain "
-                   "passive forms before the run");
     app.add_option("--modes", options.modes,
                    "write the N lowest natural frequencies at the start (SLEPc; a dynamic "
                    "scene) to OUT/modes.json and stop")
@@ -64,20 +56,6 @@ int main(int argc, char** argv)
     }
     if (options.out.empty())
       options.out = "out/" + std::filesystem::path(path).stem().string();
-    // the scene's PETSc options; the command line's win (inserted afterwards)
-    for (std::size_t i = 0; i < scene.petsc_options.size(); ++i)
-    {
-      const std::string& name = scene.petsc_options[i];
-      if (name[0] != '-')
-        continue;
-      const bool has_value = i + 1 < scene.petsc_options.size()
-                             and scene.petsc_options[i + 1][0] != '-';
-      PetscBool set = PETSC_FALSE;
-      PetscOptionsHasName(nullptr, nullptr, name.c_str(), &set);
-      if (!set)
-        PetscOptionsSetValue(nullptr, name.c_str(),
-                             has_value ? scene.petsc_options[i + 1].c_str() : nullptr);
-    }
     // series.png from what was converged, also when the run stopped early
     const auto plot = [&]
     {
