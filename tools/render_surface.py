@@ -4,13 +4,14 @@ side, coloured by the cell value they carry (the fibre stretch), with one shared
 colour scale -- a picture without ParaView.
 
     render_surface.py OUTPUT.png "TITLE=run/surface.json" ... [--label "fibre stretch"]
-        [--field NAME] [--upright] [--view ELEV,AZIM] [--highlight]
+        [--field NAME] [--upright] [--view ELEV,AZIM] [--highlight] [--max V]
 
 --field colours by one of the surface's named fields (scenes write the post
 fields, and contact_pressure / contact_gap with contact) instead of the fibre
 stretch; --upright keeps z up (scenes) instead of laying the muscle axis
 horizontal; --highlight draws facets whose value is zero faintly, so that a
-contact patch shows through the body lying over it.
+contact patch shows through the body lying over it; --max ends the colour scale at V
+(larger values in its top colour: stiff bones beside soft muscle).
 """
 import argparse
 import json
@@ -50,13 +51,16 @@ def main():
     parser.add_argument("--view", default="20,-80", help="elevation,azimuth in degrees")
     parser.add_argument("--highlight", action="store_true",
                         help="draw facets with value 0 faint (a contact patch shows through)")
+    parser.add_argument("--max", type=float, help="upper end of the colour scale")
     args = parser.parse_args()
     elev, azim = (float(v) for v in args.view.split(","))
 
     panels = [(s.rsplit("=", 1)[0], load(s.rsplit("=", 1)[1], args.field, args.upright))
               for s in args.surfaces]
     values = np.concatenate([v for _, (_, v) in panels])
-    norm = matplotlib.colors.Normalize(vmin=values.min(), vmax=values.max())
+    norm = matplotlib.colors.Normalize(vmin=values.min(),
+                                       vmax=values.max() if args.max is None else args.max,
+                                       clip=True)
     cmap = plt.get_cmap("viridis")
     # one light direction so that the spindle reads as a solid
     light = np.array([0.4, -0.8, 0.45])
@@ -97,7 +101,7 @@ def main():
         fig.subplots_adjust(left=-0.1, right=0.95, hspace=0, top=0.95, bottom=0.02)
     bar = fig.add_axes([0.88, 0.15, 0.02, 0.7])
     fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), cax=bar,
-                 label=args.label)
+                 label=args.label, extend="neither" if args.max is None else "max")
     fig.savefig(args.output, dpi=130, bbox_inches="tight")
     print(f"wrote {args.output}")
 

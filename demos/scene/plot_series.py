@@ -1,7 +1,9 @@
 #!/usr/bin/python3
 """Every series quantity of a muscle-run output against time, one panel each.
 
-    plot_series.py OUTPUT.png series.csv [TITLE]
+    plot_series.py OUTPUT.png series.csv [TITLE] [--columns NAME,NAME,...]
+
+--columns: these quantities only, in this order.
 """
 import csv
 import sys
@@ -14,12 +16,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 SOLVER_COLUMNS = {"newton_iterations", "linear_iterations", "cutbacks", "residual", "wall_time"}
 
 
-def main(output, path, title=""):
+def main(output, path, title="", columns=None):
     with open(path) as f:
         rows = list(csv.DictReader(f))
     if not rows:
         return
     quantities = [k for k in rows[0] if k != "t" and k not in SOLVER_COLUMNS]
+    if columns:
+        unknown = [c for c in columns if c not in quantities]
+        if unknown:
+            sys.exit(f"--columns: {', '.join(unknown)} not in {path} (it has {', '.join(quantities)})")
+        quantities = columns
     t = [float(r["t"]) for r in rows]
     fig, axes = plt.subplots(len(quantities) + 1, 1, sharex=True,
                              figsize=(6, 1.8 * (len(quantities) + 1)), squeeze=False)
@@ -38,4 +45,12 @@ def main(output, path, title=""):
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    args = sys.argv[1:]
+    columns = None
+    if "--columns" in args:
+        i = args.index("--columns")
+        columns = args[i + 1].split(",") if i + 1 < len(args) else []
+        del args[i:i + 2]
+    if len(args) not in (2, 3):
+        sys.exit(__doc__)
+    main(*args, columns=columns)
