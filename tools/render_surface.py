@@ -5,13 +5,15 @@ colour scale -- a picture without ParaView.
 
     render_surface.py OUTPUT.png "TITLE=run/surface.json" ... [--label "fibre stretch"]
         [--field NAME] [--upright] [--view ELEV,AZIM] [--highlight] [--max V]
+        [--box X0,X1,Y0,Y1,Z0,Z1]
 
 --field colours by one of the surface's named fields (scenes write the post
 fields, and contact_pressure / contact_gap with contact) instead of the fibre
 stretch; --upright keeps z up (scenes) instead of laying the muscle axis
 horizontal; --highlight draws facets whose value is zero faintly, so that a
 contact patch shows through the body lying over it; --max ends the colour scale at V
-(larger values in its top colour: stiff bones beside soft muscle).
+(larger values in its top colour: stiff bones beside soft muscle); --box keeps the
+facets whose centre lies in the box (reference coordinates, mm): a close look at a joint.
 """
 import argparse
 import json
@@ -24,9 +26,9 @@ import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 
-def load(path, field=None, upright=False):
-    """Facets and their values; unless upright, the muscle axis (e3) is turned
-    horizontal: plot (x, y, z) = (z, x, y)."""
+def load(path, field=None, upright=False, box=None):
+    """Facets and their values (those in `box` only, if given); unless upright, the
+    muscle axis (e3) is turned horizontal: plot (x, y, z) = (z, x, y)."""
     with open(path) as f:
         data = json.load(f)
     if field is None:
@@ -36,8 +38,15 @@ def load(path, field=None, upright=False):
     else:
         raise SystemExit(f"error: {path} has no field '{field}'; it has: "
                          + ", ".join(sorted(data.get("fields", {}))))
+    facets, values = [np.asarray(p) for p in data["facets"]], np.asarray(values)
+    if box is not None:
+        inside = [k for k, f in enumerate(facets)
+                  if all(box[2 * d] <= f[:, d].mean() <= box[2 * d + 1] for d in range(3))]
+        if not inside:
+            raise SystemExit(f"error: --box {box}: no facet of {path} in it")
+        facets, values = [facets[k] for k in inside], values[inside]
     axes = [0, 1, 2] if upright else [2, 0, 1]
-    return [np.asarray(p)[:, axes] for p in data["facets"]], np.asarray(values)
+    return [f[:, axes] for f in facets], values
 
 
 def main():
@@ -52,10 +61,14 @@ def main():
     parser.add_argument("--highlight", action="store_true",
                         help="draw facets with value 0 faint (a contact patch shows through)")
     parser.add_argument("--max", type=float, help="upper end of the colour scale")
+    parser.add_argument("--box", help="X0,X1,Y0,Y1,Z0,Z1: only the facets in this box")
     args = parser.parse_args()
+    box = [float(v) for v in args.box.split(",")] if args.box else None
+    if box is not None and len(box) != 6:
+        raise SystemExit("error: --box takes six numbers X0,X1,Y0,Y1,Z0,Z1")
     elev, azim = (float(v) for v in args.view.split(","))
 
-    panels = [(s.rsplit("=", 1)[0], load(s.rsplit("=", 1)[1], args.field, args.upright))
+    panels = [(s.rsplit("=", 1)[0], load(s.rsplit("=", 1)[1], args.field, args.upright, box))
               for s in args.surfaces]
     values = np.concatenate([v for _, (_, v) in panels])
     norm = matplotlib.colors.Normalize(vmin=values.min(),
