@@ -1,4 +1,5 @@
 #include "condition_number.h"
+#include "eigenfrequencies.h"
 
 #include <cmath>
 #include <slepceps.h>
@@ -50,20 +51,7 @@ double extreme_eigenvalue(Mat K, bool largest)
   if (largest)
     EPSSetWhichEigenpairs(eps, EPS_LARGEST_MAGNITUDE);
   else
-  {
-    EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE);
-    EPSSetTarget(eps, 0.0);
-    ST st;
-    EPSGetST(eps, &st);
-    STSetType(st, STSINVERT);
-    KSP ksp;
-    STGetKSP(st, &ksp);
-    KSPSetType(ksp, KSPPREONLY);
-    PC pc;
-    KSPGetPC(ksp, &pc);
-    PCSetType(pc, PCLU);
-    PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
-  }
+    nearest_zero(eps);
   EPSSetOptionsPrefix(eps, "condition_");
   EPSSetFromOptions(eps);
   double value = 0;
@@ -85,10 +73,7 @@ double extreme_eigenvalue(Mat K, bool largest)
 
 ConditionEstimate estimate_condition_number(Mat A)
 {
-  PetscBool initialised = PETSC_FALSE;
-  SlepcInitialized(&initialised);
-  if (!initialised)
-    SlepcInitialize(nullptr, nullptr, nullptr, nullptr);
+  initialise_slepc();
   IS rows = free_rows(A);
   Mat K;
   MatCreateSubMatrix(A, rows, rows, MAT_INITIAL_MATRIX, &K);

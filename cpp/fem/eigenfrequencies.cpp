@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <slepceps.h>
 
 namespace muscle
 {
@@ -33,13 +32,34 @@ IS rows_with_mass(Mat M)
 }
 } // namespace
 
-std::vector<double> natural_frequencies(Mat K_full, Mat M_full,
-                                        const DisplacementConstraint* constraint, int count)
+void initialise_slepc()
 {
   PetscBool initialised = PETSC_FALSE;
   SlepcInitialized(&initialised);
   if (!initialised)
     SlepcInitialize(nullptr, nullptr, nullptr, nullptr);
+}
+
+void nearest_zero(EPS eps)
+{
+  EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE);
+  EPSSetTarget(eps, 0.0);
+  ST st;
+  EPSGetST(eps, &st);
+  STSetType(st, STSINVERT);
+  KSP ksp;
+  STGetKSP(st, &ksp);
+  KSPSetType(ksp, KSPPREONLY);
+  PC pc;
+  KSPGetPC(ksp, &pc);
+  PCSetType(pc, PCLU);
+  PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+}
+
+std::vector<double> natural_frequencies(Mat K_full, Mat M_full,
+                                        const DisplacementConstraint* constraint, int count)
+{
+  initialise_slepc();
   Mat K_red = nullptr, M_red = nullptr;
   if (constraint)
   {
@@ -61,18 +81,7 @@ std::vector<double> natural_frequencies(Mat K_full, Mat M_full,
   EPSSetProblemType(eps, EPS_GHEP);
   EPSSetDimensions(eps, count, PETSC_DEFAULT, PETSC_DEFAULT);
   EPSSetTolerances(eps, 1e-10, 500);
-  EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE);
-  EPSSetTarget(eps, 0.0);
-  ST st;
-  EPSGetST(eps, &st);
-  STSetType(st, STSINVERT);
-  KSP ksp;
-  STGetKSP(st, &ksp);
-  KSPSetType(ksp, KSPPREONLY);
-  PC pc;
-  KSPGetPC(ksp, &pc);
-  PCSetType(pc, PCLU);
-  PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+  nearest_zero(eps);
   EPSSetOptionsPrefix(eps, "modes_");
   EPSSetFromOptions(eps);
   std::vector<double> omega;

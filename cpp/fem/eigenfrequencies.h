@@ -1,6 +1,7 @@
 #pragma once
 
 #include <petscmat.h>
+#include <slepceps.h>
 #include <vector>
 
 namespace muscle
@@ -14,5 +15,12 @@ class DisplacementConstraint;
 /// are left out.  Collective; fewer values if fewer converged.
 std::vector<double> natural_frequencies(Mat K, Mat M, const DisplacementConstraint* constraint,
                                         int count);
+
+/// SLEPc started once (PETSc runs already).
+void initialise_slepc();
+
+/// `eps` looks for the eigenvalues nearest 0: shift-and-invert with a MUMPS
+/// factorisation.
+void nearest_zero(EPS eps);
 
 } // namespace muscle
