@@ -93,7 +93,8 @@ std::vector<double> natural_frequencies(Mat K_full, Mat M_full,
     {
       PetscScalar re, im;
       EPSGetEigenvalue(eps, i, &re, &im);
-      omega.push_back(std::sqrt(std::max(0.0, re)));
+      // a negative eigenvalue (an unstable state) comes back as a negative omega
+      omega.push_back(re >= 0 ? std::sqrt(re) : -std::sqrt(-re));
     }
   }
   EPSDestroy(&eps);

@@ -12,7 +12,8 @@ class DisplacementConstraint;
 /// (SLEPc, shift-and-invert about 0 with MUMPS): K the tangent and M the mass,
 /// both full-layout with the fixed dofs' rows and columns empty (K: a unit
 /// diagonal there), reduced by `constraint` (u = T x) if given.  The fixed dofs
-/// are left out.  Collective; fewer values if fewer converged.
+/// are left out.  Collective; fewer values if fewer converged; a negative value
+/// is -sqrt(-lambda) of a negative eigenvalue (an unstable state).
 std::vector<double> natural_frequencies(Mat K, Mat M, const DisplacementConstraint* constraint,
                                         int count);
 

@@ -57,6 +57,24 @@ GeneralizedAlpha::GeneralizedAlpha(
   const auto mass = mass_form(V, density_function(V->mesh(), density));
   _M = assemble_mass(*mass, {});
   _M_bc = assemble_mass(*mass, bcs);
+  {
+    // the fixed dofs: their rows of _M_bc are empty
+    Vec diagonal;
+    MatCreateVecs(_M_bc, &diagonal, nullptr);
+    MatGetDiagonal(_M_bc, diagonal);
+    PetscInt begin, end;
+    VecGetOwnershipRange(diagonal, &begin, &end);
+    const PetscScalar* d;
+    VecGetArrayRead(diagonal, &d);
+    std::vector<PetscInt> fixed;
+    for (PetscInt i = begin; i < end; ++i)
+      if (d[i - begin] == 0)
+        fixed.push_back(i);
+    VecRestoreArrayRead(diagonal, &d);
+    VecDestroy(&diagonal);
+    MatDuplicate(_M, MAT_COPY_VALUES, &_M_rows);
+    MatZeroRows(_M_rows, fixed.size(), fixed.data(), 0.0, nullptr, nullptr);
+  }
   _u_vec = la::petsc::create_vector_wrap(*_u->x());
   _v_vec = la::petsc::create_vector_wrap(*_v->x());
   _a_vec = la::petsc::create_vector_wrap(*_a->x());
@@ -73,6 +91,7 @@ GeneralizedAlpha::~GeneralizedAlpha()
     VecDestroy(v);
   MatDestroy(&_M);
   MatDestroy(&_M_bc);
+  MatDestroy(&_M_rows);
 }
 
 void GeneralizedAlpha::start(const la::Vector<double>& r0,
@@ -158,6 +177,26 @@ void GeneralizedAlpha::start(const la::Vector<double>& r0,
   _a->x()->scatter_fwd();
 }
 
+void GeneralizedAlpha::set_velocity(std::array<double, 3> v)
+{
+  // free dofs: those with mass (a fixed dof's row of the mass is empty)
+  Vec diagonal;
+  MatCreateVecs(_M_bc, &diagonal, nullptr);
+  MatGetDiagonal(_M_bc, diagonal);
+  const PetscScalar* d;
+  PetscScalar* x;
+  PetscInt n;
+  VecGetLocalSize(diagonal, &n);
+  VecGetArrayRead(diagonal, &d);
+  VecGetArray(_v_vec, &x);
+  for (PetscInt i = 0; i < n; ++i)
+    x[i] = d[i] > 0 ? v[i % 3] : 0.0;
+  VecRestoreArray(_v_vec, &x);
+  VecRestoreArrayRead(diagonal, &d);
+  VecDestroy(&diagonal);
+  _v->x()->scatter_fwd();
+}
+
 void GeneralizedAlpha::combine(double c_u, double c_a, Vec w) const
 {
   // w = c_u (u - u_n - h v_n) + c_a a_n
@@ -202,19 +241,19 @@ void GeneralizedAlpha::add_jacobian(Mat A)
     return;
   const double c = (1 - _p.alpha_m) / ((1 - _p.alpha_f) * _p.beta * _h * _h);
   PetscInt begin, end;
-  MatGetOwnershipRange(_M_bc, &begin, &end);
+  MatGetOwnershipRange(_M_rows, &begin, &end);
   std::vector<PetscScalar> scaled;
   for (PetscInt row = begin; row < end; ++row)
   {
     PetscInt n;
     const PetscInt* columns;
     const PetscScalar* values;
-    MatGetRow(_M_bc, row, &n, &columns, &values);
+    MatGetRow(_M_rows, row, &n, &columns, &values);
     scaled.assign(values, values + n);
     for (PetscScalar& s : scaled)
       s *= c;
     MatSetValues(A, 1, &row, n, columns, scaled.data(), ADD_VALUES);
-    MatRestoreRow(_M_bc, row, &n, &columns, &values);
+    MatRestoreRow(_M_rows, row, &n, &columns, &values);
   }
 }
 

@@ -4,6 +4,7 @@
 
 #include <dolfinx/fem/DirichletBC.h>
 #include <dolfinx/fem/Function.h>
+#include <array>
 #include <memory>
 #include <petscmat.h>
 #include <vector>
@@ -51,22 +52,28 @@ public:
   GeneralizedAlpha(const GeneralizedAlpha&) = delete;
   GeneralizedAlpha& operator=(const GeneralizedAlpha&) = delete;
 
-  /// The start at rest or with the velocity in velocity(): the initial
+  /// The start at rest or with the velocity of set_velocity(): the initial
   /// acceleration from M a_0 = -r_0, `r0` the nodal forces of the start (the
   /// quasi-static residual without this term; zero: a_0 = 0).  With a
   /// constraint u = T x the mass is reduced the same way.
   void start(const dolfinx::la::Vector<double>& r0,
              const DisplacementConstraint* constraint);
 
+  /// Before start(): the velocity `v` (mm/s) at every free dof (zero at the
+  /// fixed ones).
+  void set_velocity(std::array<double, 3> v);
+
   /// Before the solve of a sub-step of length h (from u = u_n).
   void begin_step(double h);
   /// After the solve converged: velocity, acceleration and forces at the new u.
   void accept_step();
+  /// After the solve failed: no step under way (the state is that of t_n).
+  void reject_step() { _h = 0; }
 
   void add_residual(Vec F) override;
   void add_jacobian(Mat A) override;
 
-  /// 1/2 v^T M v at the last accepted state (mJ = mN mm; collective).
+  /// 1/2 v^T M v at the last accepted state (µJ = mN mm; collective).
   double kinetic_energy() const;
 
   const AlphaParameters& parameters() const { return _p; }
@@ -88,6 +95,9 @@ private:
   double _h = 0;
   Mat _M = nullptr;    ///< consistent mass, every row
   Mat _M_bc = nullptr; ///< the same with the fixed dofs' rows and columns zero
+  /// the same with the fixed dofs' rows zero, their columns kept: the tangent
+  /// of the residual's M a_m in both Newton paths (lifting, F-bar's kept columns)
+  Mat _M_rows = nullptr;
   Vec _u_vec = nullptr, _u_n = nullptr, _v_vec = nullptr, _a_vec = nullptr, _r_vec = nullptr;
   Vec _w = nullptr, _Mw = nullptr;
 };

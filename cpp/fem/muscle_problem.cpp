@@ -244,6 +244,11 @@ int MuscleProblem::quadrature_degree() const
   return _variant->quadrature_degree;
 }
 
+bool MuscleProblem::reduced_volumetric() const
+{
+  return _variant->volumetric_quadrature_degree != _variant->quadrature_degree;
+}
+
 std::shared_ptr<fem::FunctionSpace> MuscleProblem::cell_space(int block_size) const
 {
   const auto cell_type = mesh::cell_type_to_basix_type(_mesh->topology().cell_type());

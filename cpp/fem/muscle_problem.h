@@ -76,6 +76,8 @@ public:
   bool passive() const { return _passive; }
   const std::string& kernel_name() const { return _kernels; }
   int quadrature_degree() const;
+  /// The stiff volumetric part on a rule of its own (the anti-locking Q1).
+  bool reduced_volumetric() const;
 
   std::shared_ptr<dolfinx::mesh::Mesh> mesh() const { return _mesh; }
   std::shared_ptr<dolfinx::fem::FunctionSpace> V() const { return _V; }
@@ -139,7 +141,7 @@ public:
   /// Current volume of the body.
   double volume() const;
   /// Strain energy of the body at the current displacement and activation
-  /// (mJ = mN mm; collective).
+  /// (µJ = mN mm; collective).
   double strain_energy() const;
 
   /// Local cells (owned and ghost) this problem integrates over.

@@ -115,7 +115,7 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
   std::vector<double> converged(u.array().begin(), u.array().end());
   const double dt = _options.dt;
   const double smallest = dt * std::pow(_options.cutback_factor, _options.max_cutbacks);
-  const int steps = static_cast<int>(std::ceil((_options.t_end - _options.t_start) / dt - 1e-9));
+  const int steps = _options.steps();
   double t = _options.t_start;
   double h = _options.first_substep > 0 ? std::min(dt, _options.first_substep) : dt;
   int successes = _options.first_successes;
@@ -125,12 +125,11 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
     // takes the very same steps as the uninterrupted run
     const double target = k == steps ? _options.t_end : std::min(t + dt, _options.t_end);
     StepRecord record;
-    // t and the targets are sums and products of dt that differ in the last
-    // bits: a remainder below 1e-9 dt is no step (in dynamics such a step,
-    // with its mass term ~ 1/h^2, would be ruinous)
+    // a remainder below a twentieth of the sub-step joins it: a tiny step is
+    // ruinous in dynamics (the mass term grows like 1/h^2, round-off with it)
     while (target - t > 1e-9 * dt)
     {
-      const double next = target - (t + h) < 1e-9 * dt ? target : t + h;
+      const double next = target - (t + h) < 0.05 * h ? target : t + h;
       _set_time(next);
       if (_dynamics)
         _dynamics->begin_step(next - t);
@@ -150,6 +149,8 @@ QuasiStaticStepper::run(const std::function<bool(const StepRecord&)>& on_output)
         continue;
       }
       StepFailure failure = diagnose(t, next, k, report);
+      if (_dynamics)
+        _dynamics->reject_step();
       std::copy(converged.begin(), converged.end(), u.mutable_array().begin());
       u.scatter_fwd();
       _set_time(t);

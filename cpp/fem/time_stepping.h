@@ -2,6 +2,7 @@
 
 #include "nonlinear_solver.h"
 
+#include <cmath>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -24,6 +25,13 @@ struct TimeSteppingOptions
   /// (0: start with dt), so the resumed run takes the very same steps.
   double first_substep = 0;
   int first_successes = 0;
+
+  /// The output steps from t_start to t_end: a tail below a thousandth of dt
+  /// joins the last step rather than make one of its own.
+  int steps() const
+  {
+    return static_cast<int>(std::ceil((t_end - t_start) / dt - 1e-3));
+  }
 };
 
 /// One converged output time.

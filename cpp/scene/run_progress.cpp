@@ -18,7 +18,7 @@ std::size_t fingerprint(const std::string& text) { return std::hash<std::string>
 
 int RunProgress::remaining_steps() const
 {
-  return static_cast<int>(std::ceil((stepping.t_end - stepping.t_start) / stepping.dt - 1e-9));
+  return stepping.steps();
 }
 
 void RunProgress::add(const StepRecord& r)

@@ -160,8 +160,8 @@ struct SeriesQuantity
     max_pressure,    ///< largest contact pressure [kPa]
     max_penetration, ///< largest penetration [mm]
     rotation,        ///< rotation vector of a part's best rigid fit [degrees]
-    kinetic_energy,  ///< 1/2 v^T M v (dynamic scenes) [mJ = mN mm]
-    strain_energy    ///< the laws' energy over the body [mJ]
+    kinetic_energy,  ///< 1/2 v^T M v (dynamic scenes) [µJ = mN mm]
+    strain_energy    ///< the laws' energy over the body [µJ]
   } kind;
   int pair = 0; ///< contact quantities: index into Scene::contacts
   std::string part; ///< rotation: the part's name
@@ -205,6 +205,7 @@ struct OutputSpec
 struct DynamicsSpec
 {
   double rho_inf = 1; ///< spectral radius at infinite frequency, [0, 1]; 1: no damping
+  std::array<double, 3> initial_velocity = {0, 0, 0}; ///< mm/s, of every free node
   SceneLocation where;
 };
 

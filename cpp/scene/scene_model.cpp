@@ -349,6 +349,7 @@ void add_dynamics(const Scene& scene, SceneModel& model, bool quiet)
     return;
   model.dynamics = std::make_shared<GeneralizedAlpha>(
       model.problem().u(), cell_densities(scene, model), model.bcs, scene.dynamics->rho_inf);
+  model.dynamics->set_velocity(scene.dynamics->initial_velocity);
   // a second-order method follows an input's change with a few percent error
   // from about 10 steps over it on
   const auto [tau, what] = shortest_input_time(scene);

@@ -895,10 +895,11 @@ Scene parse_scene(const std::string& text, const std::string& name,
   }
 
   // boundary conditions
+  // a dynamic body may fly free: its inertia makes the Newton system regular
   const Entry b = top.required("boundary");
-  if (!b.is_sequence() or b.size() == 0)
+  if (!b.is_sequence() or (b.size() == 0 and !top["dynamics"].defined()))
     b.fail("expected a list of conditions (clamp, displacement, uniform_axial), found "
-           + b.shown());
+           + b.shown() + (b.is_sequence() ? " (only a dynamic scene may have none)" : ""));
   for (std::size_t i = 0; i < b.size(); ++i)
     scene.boundary.push_back(read_condition(b.at(i)));
   const Entry loads = top["loads"];
@@ -986,12 +987,19 @@ Scene parse_scene(const std::string& text, const std::string& name,
   const Entry d = top["dynamics"];
   if (d.defined())
   {
-    d.require_map({"method", "rho_inf"});
+    d.require_map({"method", "rho_inf", "initial_velocity"});
     if (d["method"].defined())
       d["method"].choice({"generalized_alpha"});
     DynamicsSpec dynamics;
     dynamics.where = d.where();
     dynamics.rho_inf = d["rho_inf"].number(1);
+    if (const Entry v = d["initial_velocity"]; v.defined())
+    {
+      if (!v.is_sequence() or v.size() != 3)
+        v.fail("expected a velocity [vx, vy, vz] in mm/s, found " + v.shown());
+      for (std::size_t k = 0; k < 3; ++k)
+        dynamics.initial_velocity[k] = v.at(k).number();
+    }
     if (!(dynamics.rho_inf >= 0 and dynamics.rho_inf <= 1))
       d["rho_inf"].fail("'" + d["rho_inf"].text() + "' is outside [0, 1] (the spectral radius "
                         "at infinite frequency: 1 damps nothing, 0 the most)");

@@ -98,6 +98,12 @@ SeriesQuantities::SeriesQuantities(const Scene& scene, const SceneModel& model)
       _measure.push_back([&model] { return model.dynamics->kinetic_energy(); });
       break;
     case K::strain_energy:
+      for (const MuscleProblem* part : model.body)
+        if (part->reduced_volumetric())
+          // its forces come from two rules, its energy functional has one
+          throw InputError(q.where.text() + ": strain_energy is not available on the "
+                           "anti-locking element (volumetric_quadrature_degree); use F-bar, "
+                           "plain or quadratic elements");
       _measure.push_back(
           [&model]
           {
