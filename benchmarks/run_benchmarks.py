@@ -26,8 +26,9 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             four models' fusiform runs (F-bar, n = 1) and the block demo scenes
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
-  report    tables (stdout + Markdown), docs/images/speed_accuracy.png and
-            benchmarks/results.json from everything measured so far
+  report    benchmarks/results.json and docs/images/speed_accuracy*.png from
+            everything measured in WORK (results.json is kept when WORK has no runs),
+            then BENCHMARKS.md from results.json (benchmarks/report.py)
 
 Every fusiform run goes to WORK/runs/NAME (summary.json, series.csv, time.txt with
 peak RSS, loadavg before/after); --reuse keeps completed runs.  Each phase stores its
@@ -43,6 +44,9 @@ import shlex
 import subprocess
 import sys
 import time
+
+import report
+from report import LINE_SEARCHES
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -401,7 +405,7 @@ def collect(args):
     drivers writing records.json at once)."""
     import glob
     data = {"assembly": {}, "instructions": {}, "e2e": {}, "solvers": {}, "map": {},
-            "knobs": {}, "fbar": {}}
+            "knobs": {}, "fbar": {}, "linesearch": {}}
     for element in ("Q1", "Q2", "P1", "P2", "Q1F"):
         path = os.path.join(args.work, f"assembly_{element}_n{args.assembly_n}.json")
         if os.path.exists(path):
@@ -420,6 +424,12 @@ def collect(args):
     for path in sorted(glob.glob(os.path.join(args.work, "runs", "*", "record.json"))):
         with open(path) as f:
             r = json.load(f)
+        if r.get("group") == "linesearch" or "scene" in r:  # fusiform and scene runs
+            if "method" not in r:  # a fusiform run's record: from the options it ran with
+                options = " ".join(r.get("petsc", []))
+                r["method"] = "tr" if "newtontr" in options else options.split()[-1]
+            data["linesearch"][r["name"]] = r
+            continue
         r.setdefault("petsc", [])
         r.setdefault("fbar", False)
         if r["fbar"] or r.get("group") == "fbar":
@@ -623,40 +633,9 @@ def phase_knobs(args, records):
         records.put("knobs", r["name"], r)
 
 
-def knob_table(knobs):
-    """Each run against its model's reference in the same case: Q2 for the element
-    choice, the round-off tolerance for the root finder."""
-    rows = []
-    runs = [r for r in knobs.values() if r.get("completed")]
-    for r in sorted(runs, key=lambda r: (r["model"], r["case"], r["name"])):
-        tolerance = any("--root-tolerance" in a for a in r["petsc"])
-        if tolerance:
-            ref = [x for x in runs if x["model"] == r["model"] and x["case"] == r["case"]
-                   and "--root-tolerance 1e-15" in x["petsc"]]
-        else:
-            ref = [x for x in runs if x["model"] == r["model"] and x["case"] == r["case"]
-                   and x["degree"] == 2]
-        quantity = "F33" if r["case"] == "isometric" else "epsilon"
-        error = None
-        if ref and ref[0]["name"] != r["name"]:
-            a, b = r[quantity], ref[0][quantity]
-            error = abs(a - b) / (abs(b) if quantity == "F33" else abs(1 - b))
-        setting = f"{r['element']} " + " ".join(r["petsc"])
-        rows.append([r["model"], r["case"], setting.strip(), r.get("unknowns"),
-                     fmt(r[quantity], ".8g"), fmt(error * 100 if error is not None else None, ".3g"),
-                     fmt(r["wall_time"], ".1f"), fmt(r.get("cpu_time"), ".1f"),
-                     r.get("newton_iterations"), fmt(r["loadavg_before"][0], ".2f")])
-    return md_table(["model", "case", "setting", "unknowns", "F33 / epsilon",
-                     "error [%] (vs Q2 / vs tolerance 1e-15)", "wall [s]", "CPU [s]",
-                     "Newton its", "load"], rows)
-
-
 # ---------------------------------------------------------------------------
 # line searches: the default chosen by measurement
 # ---------------------------------------------------------------------------
-# cp, bt, basic, l2: PETSc's SNES line searches; tr: Newton with a trust region
-# (SNES newtontr) instead of a line search
-LINE_SEARCHES = ("cp", "bt", "basic", "l2", "tr")
 LINE_SEARCH_SCENES = ("block_graded", "block_wave", "block_cell_data", "block_muscle_tendon",
                       "fusiform_passive_stretch")
 
@@ -721,89 +700,9 @@ def phase_linesearch(args, records):
             records.put("linesearch", r["name"], r)
 
 
-def line_search_table(runs):
-    """Newton iterations (cutbacks) per case and method; a failed run shows its exit."""
-    cases, cells = [], {}
-    for r in runs.values():
-        case = r.get("scene") or f"fusiform {r['model']} {r['case']}"
-        if case not in cases:
-            cases.append(case)
-        if r.get("completed"):
-            text = f"{r['newton_iterations']} ({r['cutbacks']})"
-        else:
-            text = f"fails (exit {r.get('returncode')})"
-        cells[(case, r["method"])] = (text, r)
-    rows = [[case] + [cells.get((case, m), ("-",))[0] for m in LINE_SEARCHES]
-            for case in sorted(cases)]
-    totals = ["**completed / Newton its in all / wall [s]**"]
-    for m in LINE_SEARCHES:
-        done = [c[1] for (case, method), c in cells.items() if method == m]
-        ok = [r for r in done if r.get("completed")]
-        totals.append(f"{len(ok)}/{len(done)} / {sum(r['newton_iterations'] for r in ok)} / "
-                      f"{sum(r.get('wall_time') or 0 for r in ok):.0f}")
-    return md_table(["case"] + list(LINE_SEARCHES), rows + [totals])
-
-
 # ---------------------------------------------------------------------------
 # report
 # ---------------------------------------------------------------------------
-def md_table(header, rows):
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(lines)
-
-
-def fmt(x, spec=".3g"):
-    if x is None:
-        return "-"
-    if isinstance(x, float) and not math.isfinite(x):
-        return str(x)
-    return format(x, spec)
-
-
-def load_str(r):
-    return f"{r['loadavg_before'][0]:.2f}/{r['loadavg_after'][0]:.2f}"
-
-
-def assembly_tables(records):
-    out = []
-    for element, data in records.get("assembly", {}).items():
-        rows = []
-        for m in data["models"]:
-            rows.append([m["model"], fmt(m["jacobian_median"] * 1e3, ".1f"),
-                         fmt(m["residual_median"] * 1e3, ".1f"),
-                         fmt(m["kernel_median"] * 1e3, ".1f"),
-                         fmt(m["jacobian_ratio"], ".2f"), fmt(m["residual_ratio"], ".2f"),
-                         fmt(m["newton_ratio"], ".2f"), fmt(m.get("target"), ".1f"),
-                         {True: "yes", False: "NO", None: "-"}[m.get("target_met")]])
-        out.append(f"**{element}**, fusiform n = {data['refinement']}: {data['cells']} cells, "
-                   f"{data['unknowns']} unknowns, quadrature degree {data['quadrature_degree']}, "
-                   f"{data['repetitions']} repetitions (median), load average "
-                   f"{data['loadavg_before'][0]:.2f} -> {data['loadavg_after'][0]:.2f}\n\n"
-                   + md_table(["model", "Jacobian [ms]", "residual [ms]", "kernel [ms]",
-                               "J / NH", "r / NH", "(J + r + kernel) / NH", "target",
-                               "met"], rows))
-    return "\n\n".join(out)
-
-
-def instruction_tables(records):
-    out = []
-    for element, data in records.get("instructions", {}).items():
-        rows = []
-        for m, c in data["counts"].items():
-            target = {"ble": 1.5, "combi": 1.5, "wkm": 2.0, "giant": 2.0}.get(m)
-            rows.append([m, fmt(c["jacobian"] / 1e6, ".1f"), fmt(c["residual"] / 1e6, ".1f"),
-                         fmt(c["kernel"] / 1e6, ".1f"), fmt(c["jacobian_ratio"], ".2f"),
-                         fmt(c["residual_ratio"], ".2f"), fmt(c["newton_ratio"], ".2f"),
-                         fmt(target, ".1f") if target else "-",
-                         ("yes" if c["newton_ratio"] <= target else "NO") if target else "-"])
-        out.append(f"**{element}**, fusiform n = 1 (instructions, callgrind; one call each)\n\n"
-                   + md_table(["model", "Jacobian [M instr]", "residual [M instr]",
-                               "kernel [M instr]", "J / NH", "r / NH",
-                               "(J + r + kernel) / NH", "target", "met"], rows))
-    return "\n\n".join(out)
-
-
 def extrapolate(records):
     """Power-law fit t = a N^p of the n = 1, 2 runs (COMBI isometric, LU, one rank),
     evaluated at n = 4 (385,155 unknowns); the same for peak memory."""
@@ -827,27 +726,6 @@ def extrapolate(records):
         out["seconds_per_newton"] = {"exponent": p, "n1": per_it[0], "n2": per_it[1],
                                   "n4_estimate": per_it[1] * (N4 / b["unknowns"]) ** p}
     return out
-
-
-def run_table(rs, value=False):
-    rows = []
-    for r in rs:
-        extra = [fmt(r.get("F33" if r["case"] == "isometric" else "epsilon"), ".7g")] \
-            if value else []
-        rows.append([r["model"] + "".join(" " + x for x in r["sets"] + r.get("petsc", []))
-                     + (f" rtol {r['linear_rtol']:g}" if r.get("linear_rtol") else ""),
-                     r["case"], r["element"], *extra,
-                     r["n"], r.get("unknowns", "-"),
-                     fmt(r["dt"], "g"), r["solver"], r["ranks"],
-                     fmt(r.get("wall_time") or r.get("elapsed"), ".1f"),
-                     fmt(r.get("cpu_time"), ".1f"), r.get("steps", "-"),
-                     fmt(r.get("newton_per_step"), ".1f"), fmt(r.get("krylov_per_newton"), ".1f"),
-                     r.get("cutbacks", "-"), fmt(r.get("peak_rss_MiB"), ".0f"), load_str(r),
-                     "yes" if r.get("completed") else "NO"])
-    return md_table(["model", "case", "element"] + (["F33 / epsilon"] if value else [])
-                    + ["n", "unknowns", "dt [s]", "solver", "ranks",
-                     "wall [s]", "CPU [s]", "steps", "Newton/step", "Krylov/Newton", "cutbacks",
-                     "peak RSS [MiB]", "load before/after", "completed"], rows)
 
 
 def kappa100_runs(records):
@@ -912,6 +790,7 @@ def map_analysis(records, reference_choice, sets=()):
                                   "n": r["n"], "dt": r["dt"], "sets": r["sets"],
                                   "model_change": r["sets"] != list(sets),
                                   "loadavg": r["loadavg_before"][0]})
+    out["levels"] = report.accuracy_levels(out)
     return out
 
 
@@ -981,82 +860,34 @@ def plot_map(analysis, path, runs):
     fig.savefig(path, dpi=110)
 
 
-def map_report(analysis, title, penalty):
-    """The map's table and the cheapest setting per accuracy level (in `analysis`)."""
-    rows = []
-    for p in sorted(analysis["points"], key=lambda p: (p["case"], p["wall_time"])):
-        rows.append([p["case"], p["label"], p.get("unknowns"), fmt(p["value"], ".6g"),
-                     fmt(p["error"] * 100, ".3g"), fmt(p["wall_time"], ".1f"),
-                     fmt(p.get("cpu_time"), ".1f"), p.get("newton_iterations"),
-                     p.get("cutbacks"), fmt(p["loadavg"], ".2f")])
-    refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g})"
-                     for c, v in analysis["reference"].items())
-    levels = []
-    for case in ("isometric", "free"):
-        pts = [p for p in analysis["points"] if p["case"] == case and not p["model_change"]]
-        for level in (0.05, 0.01, 0.001):
-            ok = [p for p in pts if p["error"] <= level]
-            best = min(ok, key=lambda p: p["wall_time"]) if ok else None
-            ref_name = analysis["reference"].get(case, {}).get("name", "-")
-            levels.append([case, f"{level * 100:g} %",
-                           best["label"] if best else
-                           f"none but the reference ({ref_name}, own error unknown)",
-                           fmt(best["wall_time"], ".1f") if best else "-",
-                           fmt(best["error"] * 100, ".3g") if best else "-"])
-    analysis["levels"] = levels
-    return (f"## {title}\n\nReference: " + refs + "\n\n"
-            + md_table(["case", "setting", "unknowns", "value", "error [%]", "wall [s]",
-                        "CPU [s]", "Newton its", "cutbacks", "load (1 min, at start)"], rows)
-            + f"\n\n### Cheapest setting per accuracy level (discretisation only, {penalty})"
-            "\n\n" + md_table(["case", "accuracy", "cheapest setting", "wall [s]",
-                                "error [%]"], levels))
-
-
 def phase_report(args, records):
+    """results.json from the runs in WORK (if any), then BENCHMARKS.md from results.json."""
     data = collect(args)
-    text = ["# Benchmark tables (generated by benchmarks/run_benchmarks.py report)\n"]
-    if data.get("assembly"):
-        text.append("## Assembly (wall time)\n\n" + assembly_tables(data))
-    if data.get("instructions"):
-        text.append("## Assembly (instruction counts)\n\n" + instruction_tables(data))
-    for phase, title in (("e2e", "End-to-end isometric contraction 0..0.15 s"),
-                         ("solvers", "Linear solvers and MPI ranks")):
-        if data.get(phase):
-            rs = sorted(data[phase].values(), key=lambda r: (r["n"], r["model"], r["solver"],
-                                                               r["ranks"]))
-            text.append(f"## {title}\n\n" + run_table(rs))
-    if data.get("fbar"):
-        rs = sorted(data["fbar"].values(), key=lambda r: (r["case"], r["n"], r["sets"],
-                                                          r["solver"], r["ranks"]))
-        text.append("## F-bar Q1 (three-field Newton): accuracy, solvers, ranks, n = 1, 2, 4\n\n"
-                    + run_table(rs, value=True))
-    extrapolations = extrapolate(data)
-    if extrapolations:
-        text.append("### Extrapolation to n = 4 (385,155 unknowns) from n = 1, 2 (LU, one "
-                    "rank)\n\n```\n" + json.dumps(extrapolations, indent=1) + "\n```")
+    if any(data.values()):
+        update_results(args, data)
+    else:  # e.g. a fresh machine: the page from the committed measurements
+        print(f"  no runs in {args.work}: {args.results} kept as it is")
+    try:
+        report.write(args.results, args.markdown)
+    except report.TemplateError as e:
+        sys.exit(f"error: {e}")
+    print(f"wrote {args.markdown}")
+
+
+def update_results(args, data):
+    """Rewrite results.json and the speed-accuracy maps from everything measured in WORK;
+    what WORK lacks (e.g. instruction counts not re-measured, hand-made entries) is kept
+    from the old results.json."""
     analysis = analysis_100 = None
     if data.get("map"):
         analysis = map_analysis(data, args.reference)
-        text.append(map_report(analysis, "Speed-accuracy map (COMBI)", "preset kappa"))
         plot_map(analysis, os.path.join(ROOT, "docs", "images", "speed_accuracy.png"),
                  list(data["map"].values()))
         analysis_100 = map_analysis(data, None, sets=("kappa=100",))
         if analysis_100["reference"]:
-            text.append(map_report(analysis_100, "Speed-accuracy map at kappa = 100 (COMBI): "
-                                   "finer references, multigrid on 2 ranks", "kappa = 100"))
             plot_map(analysis_100, os.path.join(ROOT, "docs", "images",
                                                 "speed_accuracy_kappa100.png"),
                      list(kappa100_runs(data).values()))
-    if data.get("knobs"):
-        text.append("## Anti-locking Q1 (BLE) and the activation root tolerance\n\n"
-                    + knob_table(data["knobs"]))
-    if data.get("linesearch"):
-        text.append("## Line searches (Newton iterations, cutbacks in brackets)\n\n"
-                    + line_search_table(data["linesearch"]))
-    report = "\n\n".join(text) + "\n"
-    print(report)
-    with open(os.path.join(args.work, "tables.md"), "w") as f:
-        f.write(report)
     results = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
                "git_commit": git_commit(), "machine": machine_info(), "loadavg_at_report": loadavg(),
                "note": "2-core machine shared with other builds/tests: every timing carries the "
@@ -1068,7 +899,7 @@ def phase_report(args, records):
                "speed_accuracy": analysis,
                "speed_accuracy_kappa100": analysis_100,
                "instructions": data.get("instructions", {}),
-               "extrapolations": extrapolations,
+               "extrapolations": extrapolate(data),
                "knob_runs": list(data.get("knobs", {}).values()),
                "fbar_runs": list(data.get("fbar", {}).values()),
                "line_search_runs": list(data.get("linesearch", {}).values()),
@@ -1092,6 +923,8 @@ def main():
     parser.add_argument("--build", default=os.path.join(ROOT, "build"))
     parser.add_argument("--work", default="/tmp/muscle-bench")
     parser.add_argument("--results", default=os.path.join(HERE, "results.json"))
+    parser.add_argument("--markdown", default=os.path.join(ROOT, "BENCHMARKS.md"),
+                        help="where report writes the page (default: BENCHMARKS.md)")
     parser.add_argument("--reuse", action="store_true")
     parser.add_argument("--repetitions", type=int, default=7)
     parser.add_argument("--assembly-n", type=int, default=1)
