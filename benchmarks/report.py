@@ -253,6 +253,10 @@ def make_helpers(res):
             "kernel_per_point": kernel_per_point, "loads": loads, "quad": quad, "knob": knob,
             "line_search": line_search, "line_search_total": line_search_total,
             "line_search_outliers": line_search_outliers,
+            "shoulder_fit": lambda solver, exponent=None: shoulder_fit(raw, solver, exponent),
+            "shoulder": lambda size, solver="lu", ranks=1: shoulder_run(raw, size, solver,
+                                                                       ranks),
+            "shoulder_step_time": shoulder_step_time, "shoulder_core_share": shoulder_core_share,
             "min": min, "max": max, "abs": abs, "round": round, "log2": math.log2}
 
 
@@ -672,6 +676,140 @@ def line_search_table(res):
         totals.append(f"{len(ok)}/{len(done)} / {sum(r['newton_iterations'] for r in ok)} / "
                       f"{sum(r.get('wall_time') or 0 for r in ok):.0f}")
     return md_table(["case"] + list(LINE_SEARCHES), rows + [totals])
+
+
+# ---------------------------------------------------------------------------
+# the shoulder at scale (results.json: shoulder_scale)
+# ---------------------------------------------------------------------------
+def power_fit(xs, ys):
+    """Least-squares fit of log y = log a + p log x: (a, p)."""
+    lx, ly = [math.log(x) for x in xs], [math.log(y) for y in ys]
+    mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
+    p = (sum((u - mx) * (v - my) for u, v in zip(lx, ly))
+         / sum((u - mx) ** 2 for u in lx))
+    return math.exp(my - p * mx), p
+
+
+def shoulder_step_time(r):
+    """Seconds per time step: the solve phase (no setup, no output) over the steps."""
+    return r["solve_s"] / r["steps"]
+
+
+def shoulder_one_rank(raw, solver):
+    """The completed runs of a solver with their time per step on one rank
+    (step_one_rank): measured where the size has a one-rank run; else a two-rank run's,
+    times MUMPS's one-rank / two-rank time per step at that size (the two solvers taken
+    to gain alike from the second rank under the same load)."""
+    runs = [r for r in raw["shoulder_scale"]["runs"] if r.get("completed")]
+    out = []
+    for size in sorted({r["size"] for r in runs if r["solver"] == solver}, reverse=True):
+        mine = {r["ranks"]: r for r in runs if r["size"] == size and r["solver"] == solver}
+        lu = {r["ranks"]: r for r in runs if r["size"] == size and r["solver"] == "lu"}
+        if 1 in mine:
+            out.append(Obj(mine[1], step_one_rank=shoulder_step_time(mine[1])))
+        elif 2 in mine and 1 in lu and 2 in lu:
+            out.append(Obj(mine[2], step_one_rank=shoulder_step_time(mine[2])
+                           * shoulder_step_time(lu[1]) / shoulder_step_time(lu[2])))
+    return out
+
+
+def shoulder_fit(raw, solver, exponent=None):
+    """Power laws in the unknowns N through the completed runs of a solver (time per step
+    on one rank, see shoulder_one_rank; Krylov iterations per Newton iteration), at the
+    paper's model: N* = 3 x its nodes; its steps on `cores` cores at efficiency E take
+    steps * a N*^p / (cores E).  With `exponent`, the time law has that p and goes through
+    the largest run."""
+    study = raw["shoulder_scale"]
+    target = study["target"]
+    runs = shoulder_one_rank(raw, solver)
+    n = [r["unknowns"] for r in runs]
+    big = max(runs, key=lambda r: r["unknowns"])
+    if exponent is None:
+        a, p = power_fit(n, [r["step_one_rank"] for r in runs])
+    else:
+        p = exponent
+        a = big["step_one_rank"] / big["unknowns"] ** p
+    ka, kp = power_fit(n, [r["linear_iterations"] / r["newton_iterations"] for r in runs])
+    unknowns = 3 * target["nodes"]
+    step = a * unknowns ** p
+    return Obj({"solver": solver, "runs": len(runs),
+                "converted": sum(r["ranks"] > 1 for r in runs),
+                "a": a, "exponent": p,
+                "unknowns": unknowns, "ratio": unknowns / big["unknowns"],
+                "largest": big, "step_one_core": step,
+                "krylov_exponent": kp, "krylov_per_newton": ka * unknowns ** kp,
+                "hours": {e: target["steps"] * step / (target["cores"] * e) / 3600
+                          for e in target["efficiencies"]}})
+
+
+def shoulder_run(raw, size, solver="lu", ranks=1):
+    """The shoulder run of a mesh size, solver and rank count."""
+    return Obj(next(r for r in raw["shoulder_scale"]["runs"]
+                    if (r["size"], r["solver"], r["ranks"]) == (size, solver, ranks)))
+
+
+def shoulder_core_share(r):
+    """The share of a core each rank had: CPU time over ranks x elapsed time (None
+    without a CPU time)."""
+    return r["cpu_time"] / (r["ranks"] * r["elapsed"]) if r.get("cpu_time") else None
+
+
+def shoulder_load(r):
+    mean = r.get("load_mean")
+    return f"{r['loadavg_before'][0]:.2f}" + (f" / {mean:.2f}" if mean is not None else "")
+
+
+@table
+def shoulder_scale_table(res):
+    """Every shoulder run: size, mesh, ranks and solver, cost, iterations, the answer."""
+    rows = []
+    for r in res.raw["shoulder_scale"]["runs"]:
+        done = r.get("completed")
+        steps = r.get("steps") or r.get("steps_done")
+        rows.append([r["size"], fmt(r.get("cells"), ","), fmt(r.get("nodes"), ","),
+                     fmt(r.get("unknowns"), ","), r["ranks"], SOLVER_NAMES[r["solver"]],
+                     fmt(r["peak_rss_MiB"], ",.0f"),
+                     fmt(r["wall_time"], ",.0f") if done else
+                     f"exit {r['returncode']} at t = {r.get('t_reached', 0):g} s: "
+                     f"{r.get('error', '')}",
+                     fmt(shoulder_step_time(r), ".2f") if done else "-",
+                     fmt(r["newton_iterations"] / steps, ".2f") if done else "-",
+                     fmt(r["linear_iterations"] / steps, ".1f") if done else "-",
+                     fmt(r["onset"] * 1e3, ".2f") if r.get("onset") is not None else "-",
+                     fmt(r.get("peak_contact_force"), ",.0f") if done else "-",
+                     shoulder_load(r), fmt(shoulder_core_share(r), ".2f")])
+    return md_table(["size", "cells", "nodes", "unknowns", "ranks", "linear solver",
+                     "memory [MiB]", "wall [s]", "time per step [s]", "Newton its / step",
+                     "Krylov its / step", "onset [ms]", "peak F_nc [mN]",
+                     "load (start / mean)", "CPU / (ranks x wall)"], rows)
+
+
+@table
+def shoulder_extrapolation_table(res):
+    """The power laws of time per step at the paper's model, against the paper's hours."""
+    target = res.raw["shoulder_scale"]["target"]
+    efficiencies = target["efficiencies"]
+    rows = []
+    for solver, exponent in (("lu", None), ("lu", target["lu_asymptotic_exponent"]),
+                             ("gmres-gamg", None)):
+        f = shoulder_fit(res.raw, solver, exponent)
+        converted = f" ({f['converted']} from 2 ranks)" if f["converted"] else ""
+        rows.append([f"{SOLVER_NAMES[solver]}, {f['runs']} sizes{converted}"
+                     if exponent is None else
+                     f"{SOLVER_NAMES[solver]}, p = {exponent:g} (the factorisation's "
+                     f"asymptote) through the largest run",
+                     f"{f['a']:.3g} N^{f['exponent']:.2f}",
+                     fmt(f["krylov_per_newton"], ",.0f"),
+                     fmt(f["step_one_core"], ",.0f")]
+                    + [fmt(f["hours"][e], ".2g") for e in efficiencies]
+                    + [" to ".join(fmt(target["hours"] / f["hours"][e], ",.0f")
+                                   for e in efficiencies)])
+    return md_table(["solver (fitted runs)", "time per step, one rank [s] = a N^p",
+                     "Krylov its / Newton at N*", "a N*^p: time per step at N*, one core [s]"]
+                    + [f"{target['steps']} steps on {target['cores']} cores, E = {e:g} [h]"
+                       for e in efficiencies]
+                    + [f"the paper's {target['hours']:g} h / T"],
+                    rows)
 
 
 # ---------------------------------------------------------------------------
