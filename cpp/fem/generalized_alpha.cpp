@@ -58,7 +58,7 @@ GeneralizedAlpha::GeneralizedAlpha(
   _M = assemble_mass(*mass, {});
   _M_bc = assemble_mass(*mass, bcs);
   {
-    // the fixed dofs: their rows of _M_bc are empty
+    // the fixed dofs: their rows of _M_bc are empty (every part has a density)
     Vec diagonal;
     MatCreateVecs(_M_bc, &diagonal, nullptr);
     MatGetDiagonal(_M_bc, diagonal);
@@ -68,8 +68,11 @@ GeneralizedAlpha::GeneralizedAlpha(
     VecGetArrayRead(diagonal, &d);
     std::vector<PetscInt> fixed;
     for (PetscInt i = begin; i < end; ++i)
-      if (d[i - begin] == 0)
+    {
+      _free.push_back(d[i - begin] != 0);
+      if (!_free.back())
         fixed.push_back(i);
+    }
     VecRestoreArrayRead(diagonal, &d);
     VecDestroy(&diagonal);
     MatDuplicate(_M, MAT_COPY_VALUES, &_M_rows);
@@ -119,20 +122,17 @@ void GeneralizedAlpha::start(const la::Vector<double>& r0,
   MatDuplicate(_M_bc, MAT_COPY_VALUES, &M);
   Vec rhs, diagonal;
   VecDuplicate(_r_vec, &rhs);
-  MatCreateVecs(M, &diagonal, nullptr);
-  MatGetDiagonal(M, diagonal);
+  VecDuplicate(_r_vec, &diagonal);
   {
     PetscScalar *d, *b;
     const PetscScalar* r;
     VecGetArray(diagonal, &d);
     VecGetArray(rhs, &b);
     VecGetArrayRead(_r_vec, &r);
-    PetscInt n;
-    VecGetLocalSize(diagonal, &n);
-    for (PetscInt i = 0; i < n; ++i)
+    for (std::size_t i = 0; i < _free.size(); ++i)
     {
-      b[i] = d[i] == 0 ? 0 : -r[i];
-      d[i] = d[i] == 0 ? 1 : 0;
+      b[i] = _free[i] ? -r[i] : 0;
+      d[i] = _free[i] ? 0 : 1;
     }
     VecRestoreArrayRead(_r_vec, &r);
     VecRestoreArray(rhs, &b);
@@ -179,21 +179,11 @@ void GeneralizedAlpha::start(const la::Vector<double>& r0,
 
 void GeneralizedAlpha::set_velocity(std::array<double, 3> v)
 {
-  // free dofs: those with mass (a fixed dof's row of the mass is empty)
-  Vec diagonal;
-  MatCreateVecs(_M_bc, &diagonal, nullptr);
-  MatGetDiagonal(_M_bc, diagonal);
-  const PetscScalar* d;
   PetscScalar* x;
-  PetscInt n;
-  VecGetLocalSize(diagonal, &n);
-  VecGetArrayRead(diagonal, &d);
   VecGetArray(_v_vec, &x);
-  for (PetscInt i = 0; i < n; ++i)
-    x[i] = d[i] > 0 ? v[i % 3] : 0.0;
+  for (std::size_t i = 0; i < _free.size(); ++i)
+    x[i] = _free[i] ? v[i % 3] : 0.0;
   VecRestoreArray(_v_vec, &x);
-  VecRestoreArrayRead(diagonal, &d);
-  VecDestroy(&diagonal);
   _v->x()->scatter_fwd();
 }
 

@@ -98,6 +98,7 @@ private:
   /// the same with the fixed dofs' rows zero, their columns kept: the tangent
   /// of the residual's M a_m in both Newton paths (lifting, F-bar's kept columns)
   Mat _M_rows = nullptr;
+  std::vector<char> _free; ///< per owned dof: no boundary condition (a row of mass)
   Vec _u_vec = nullptr, _u_n = nullptr, _v_vec = nullptr, _a_vec = nullptr, _r_vec = nullptr;
   Vec _w = nullptr, _Mw = nullptr;
 };
