@@ -257,6 +257,7 @@ def make_helpers(res):
             "shoulder": lambda size, solver="lu", ranks=1: shoulder_run(raw, size, solver,
                                                                        ranks),
             "shoulder_step_time": shoulder_step_time, "shoulder_core_share": shoulder_core_share,
+            "richardson": lambda *runs, key: richardson(*(r[key] for r in runs)),
             "min": min, "max": max, "abs": abs, "round": round, "log2": math.log2}
 
 
@@ -536,6 +537,41 @@ def kappa100_table(res):
                      cost(i), cost(f) if f else "-"])
     return md_table(["setting", "unknowns", "F33 [mN]", "vs F-bar n = 4", "epsilon",
                      "shortening vs F-bar n = 4", "isometric", "free"], rows)
+
+
+def richardson(coarse, medium, fine, ratio=2.0, safety=1.25):
+    """Richardson extrapolation through three meshes refined by `ratio`: the observed
+    order p, the extrapolated value and Roache's grid convergence index of the finest
+    mesh (safety factor 1.25 for three meshes), or the reason there is none."""
+    d_coarse, d_fine = coarse - medium, medium - fine
+    if d_fine == 0 or d_coarse / d_fine <= 0:
+        return {"verdict": "oscillating"}
+    if d_coarse / d_fine <= 1:
+        return {"verdict": "not converging (differences do not shrink)"}
+    p = math.log(d_coarse / d_fine) / math.log(ratio)
+    correction = d_fine / (ratio ** p - 1)
+    return {"verdict": "monotone", "p": p, "value": fine - correction,
+            "gci": safety * abs(correction / fine)}
+
+
+@table
+def richardson_table(res):
+    """F-bar n = 1, 2, 4 at kappa = 100 (and 1000 where n = 4 exists): Richardson."""
+    rows = []
+    for label, names, value in (
+            ("F33 [mN], kappa = 100", ("fb_iso_k100", "fb2_iso_k100", "fb4_iso_k100"),
+             lambda r: r["F33"]),
+            ("shortening 1 - epsilon, kappa = 100",
+             ("fb_free_k100", "fb2_free_k100_gamg_np2", "fb4_free_k100"),
+             lambda r: 1 - r["epsilon"])):
+        v = [value(res.run(RUNS[n])) for n in names]
+        x = richardson(*v)
+        rows.append([label] + [fmt(y, ",.6g") for y in v]
+                    + [fmt(v[0] - v[1], ".3g"), fmt(v[1] - v[2], ".3g"),
+                       fmt(x.get("p"), ".2f"), fmt(x.get("value"), ",.6g"),
+                       fmt(x["gci"], ".2%") if "gci" in x else x["verdict"]])
+    return md_table(["quantity", "n = 1", "n = 2", "n = 4", "change 1 -> 2", "change 2 -> 4",
+                     "observed order p", "extrapolated", "error bar of n = 4 (GCI)"], rows)
 
 
 ACCURACY_LEVELS = (0.05, 0.01, 0.001)
