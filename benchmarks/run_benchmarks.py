@@ -24,6 +24,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             the four models at n = 1
   linesearch  every SNES line search (cp, bt, basic, l2) and the trust region on the
             four models' fusiform runs (F-bar, n = 1) and the block demo scenes
+  fresh     `tools/muscle run` in a new build tree: build (configure, FFCx, compile)
+            and run (apt: --apt-seconds, timed on a fresh machine)
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
   report    benchmarks/results.json and docs/images/speed_accuracy*.png from
@@ -453,6 +455,10 @@ def collect(args):
                 data["e2e"][r["name"]] = r
         if r["model"] == "combi" and r["solver"] == "lu" and r["ranks"] == 1:
             data["map"][r["name"]] = r
+    path = os.path.join(args.work, "fresh.json")
+    if os.path.exists(path):
+        with open(path) as f:
+            data["fresh"] = json.load(f)
     path = os.path.join(args.work, "experiment_fno_math_errno.json")
     if os.path.exists(path):  # hand-made experiment, see BENCHMARKS.md
         with open(path) as f:
@@ -861,6 +867,62 @@ def plot_map(analysis, path, runs):
     fig.savefig(path, dpi=110)
 
 
+def timed(command, env=None, log=None):
+    """Run a command; (wall, CPU user + system of it and its children) in seconds."""
+    before = os.times()
+    start = time.time()
+    with open(log or os.devnull, "w") as out:
+        result = subprocess.run(command, env=env, stdout=out, stderr=subprocess.STDOUT)
+    after = os.times()
+    if result.returncode != 0:
+        sys.exit(f"error: {' '.join(command)} failed (exit {result.returncode}); see {log}")
+    return time.time() - start, (after.children_user - before.children_user
+                                 + after.children_system - before.children_system)
+
+
+def phase_fresh(args, records):
+    """`tools/muscle run` in a new build tree, as on a fresh machine whose packages are
+    installed: its build (configure, FFCx, compile) and the job.  FFCx is timed by a
+    wrapper around the Python that CMake calls, the build's end is when its last program
+    was linked; apt cannot be repeated on a machine that has the packages, so its time is
+    the one given by --apt-seconds."""
+    import shutil
+    folder = os.path.join(args.work, "fresh")
+    shutil.rmtree(folder, ignore_errors=True)
+    os.makedirs(folder)
+    build, out, python_log = (os.path.join(folder, x) for x in ("build", "out", "python.log"))
+    wrapper = os.path.join(folder, "python3")
+    with open(wrapper, "w") as f:  # one line per call: wall, user, system, command
+        f.write(f'#!/bin/sh\nexec /usr/bin/time -a -o {python_log} -f "%e %U %S %C" '
+                '/usr/bin/python3 "$@"\n')
+    os.chmod(wrapper, 0o755)
+    env = dict(os.environ, BUILD_DIR=build, OUT=out,
+               MUSCLE_CMAKE_OPTIONS=f"-DMUSCLE_PYTHON={wrapper}")
+    load = loadavg()
+    start = time.time()
+    wall, cpu = timed([os.path.join(ROOT, "tools", "muscle"), "run"], env=env,
+                      log=os.path.join(folder, "run.log"))
+    linked = max(os.path.getmtime(os.path.join(build, p)) for p in ("loadcases", "muscle-run"))
+    with open(python_log) as f:
+        calls = [line.split(maxsplit=3) for line in f if "compile_forms.py" in line]
+    with open(os.path.join(build, "CMakeCache.txt")) as f:
+        selection = [line.strip() for line in f
+                     if line.startswith(("MUSCLE_ELEMENTS:", "MUSCLE_VARIANTS:"))]
+    record = {"command": "benchmarks/run_benchmarks.py fresh", "cores": os.cpu_count(),
+              "loadavg_before": load, "loadavg_after": loadavg(), "selection": selection,
+              "apt_seconds": args.apt_seconds, "wall": wall, "cpu": cpu,
+              "build_wall": linked - start, "run_wall": start + wall - linked,
+              "ffcx": {"calls": len(calls), "cpu": sum(float(c[1]) + float(c[2]) for c in calls),
+                       "wall_sum": sum(float(c[0]) for c in calls)},
+              "generated_c_files": len([n for n in os.listdir(os.path.join(build, "generated"))
+                                        if n.endswith(".c")]),
+              "git_commit": git_commit()}
+    with open(os.path.join(args.work, "fresh.json"), "w") as f:
+        json.dump(record, f, indent=1)
+    print(f"  build {record['build_wall']:.0f} s (FFCx CPU {record['ffcx']['cpu']:.0f} s), "
+          f"run {record['run_wall']:.0f} s, CPU {cpu:.0f} s, load {load[0]:.2f}", flush=True)
+
+
 def phase_report(args, records):
     """results.json from the runs in WORK (if any), then BENCHMARKS.md from results.json."""
     data = collect(args)
@@ -904,6 +966,7 @@ def update_results(args, data):
                "knob_runs": list(data.get("knobs", {}).values()),
                "fbar_runs": list(data.get("fbar", {}).values()),
                "line_search_runs": list(data.get("linesearch", {}).values()),
+               "fresh_machine": data.get("fresh", {}),
                "experiments": data.get("experiments", {})}
     if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
         with open(args.results) as f:
@@ -935,6 +998,8 @@ def main():
     parser.add_argument("--e2e-models", nargs="+", default=["combi"])
     parser.add_argument("--e2e-refinements", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--e2e-dt", type=float, default=0.05)
+    parser.add_argument("--apt-seconds", type=float, default=None,
+                        help="fresh: the time of `tools/muscle deps` on a fresh machine")
     parser.add_argument("--deadline", default=None,
                         help="UTC HH:MM: start no run after it and stop a running one there")
     parser.add_argument("--solver-refinements", type=int, nargs="+", default=[1, 2])
@@ -961,7 +1026,7 @@ def main():
               **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
                  for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
               "knobs": phase_knobs, "fbar": phase_fbar, "restore": phase_restore,
-              "linesearch": phase_linesearch,
+              "linesearch": phase_linesearch, "fresh": phase_fresh,
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

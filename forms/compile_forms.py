@@ -3,6 +3,7 @@
 
     compile_forms.py --out DIR [--material FILE ...] [--law NAME ...] [--fibres]
                      [--registry] [--cmake FILE] [--extra-variant K:CELL:DEGREE:QDEG[:VQDEG]]
+                     [--elements all|hex1,hex2,tet1,tet2] [--variants REGEX]
 
 A law is one file (forms/materials/*.py and the files of --material; see
 muscleforms/law.py; --material adds users' files).  Each law's kernel sets (the law, and its passive counterpart
@@ -12,12 +13,17 @@ anti-locking Q1 if the law gives volumetric_stiff_part, and as one material-poin
 variant.  CMake runs one --law call per law file, so a new or edited law compiles
 only its own kernels; --registry writes the C++ tables of laws and kernels
 (form_registry.cpp); --cmake writes the generated-file list of each law for CMake.
-Without --law, --fibres, --registry or --cmake: everything.
+Without --law, --fibres, --registry or --cmake: everything.  --elements compiles only
+these elements' kernels (laws, loads, fibres; --extra-variant always), --variants only
+the FE variants whose name (e.g. combi_hex1_q2_fbar) the regular expression matches: a
+build for one job compiles what the job uses, and the registry names the rest as not
+compiled.
 """
 
 import argparse
 import math
 import pathlib
+import re
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
@@ -25,18 +31,35 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from muscleforms import fbar, law as laws_module, loads, variants  # noqa: E402
 
 
+ALL_ELEMENTS = [(c, d) for c in variants.CELLS for d in (1, 2)]
+ELEMENTS = list(ALL_ELEMENTS)  # set by --elements
+VARIANTS = [""]  # --variants: a regular expression (search) on the variant names
+
+
+def parse_elements(text):
+    if text == "all":
+        return list(ALL_ELEMENTS)
+    names = {f"{c}{d}": (c, d) for c, d in ALL_ELEMENTS}
+    wanted = [e for e in text.replace(";", ",").split(",") if e]
+    bad = [e for e in wanted if e not in names]
+    if bad or not wanted:
+        raise SystemExit(f"error: --elements {text!r}: expected all or a list of "
+                         f"{', '.join(names)}")
+    return [names[e] for e in names if e in wanted]
+
+
 def kernel_variants(kernels, law, extra=()):
     """(kernels, cell, degree, qdeg, vqdeg, fbar) of one kernel set."""
     out = []
-    for cell in variants.CELLS:
-        for degree in (1, 2):
-            qdeg = variants.DEFAULT_QUADRATURE[(cell, degree)]
-            out.append((kernels, cell, degree, qdeg, qdeg, False))
-            vqdeg = variants.REDUCED_VOLUMETRIC.get((cell, degree))
-            if vqdeg is not None and law.volumetric_stiff_part is not None:
-                out.append((kernels, cell, degree, qdeg, vqdeg, False))
-            if (cell, degree) in fbar.FBAR_ELEMENTS:
-                out.append((kernels, cell, degree, qdeg, qdeg, True))
+    for cell, degree in ELEMENTS:
+        qdeg = variants.DEFAULT_QUADRATURE[(cell, degree)]
+        out.append((kernels, cell, degree, qdeg, qdeg, False))
+        vqdeg = variants.REDUCED_VOLUMETRIC.get((cell, degree))
+        if vqdeg is not None and law.volumetric_stiff_part is not None:
+            out.append((kernels, cell, degree, qdeg, vqdeg, False))
+        if (cell, degree) in fbar.FBAR_ELEMENTS:
+            out.append((kernels, cell, degree, qdeg, qdeg, True))
+    out = [v for v in out if re.search(VARIANTS[0], variants.variant_name(*v))]
     out += [v for v in extra if v[0] == kernels and v not in out]
     return out
 
@@ -76,11 +99,12 @@ def compile_objects(names, prefix, outdir, parameters):
         write_if_changed(outdir / f"{prefix}.{ext}", (tmp / f"{prefix}.{ext}").read_text())
 
 
-LOAD_ELEMENTS = [(c, d) for c in variants.CELLS for d in (1, 2)]
-
-
 def load_prefixes():
-    return [f"loads_{c}{d}" for c, d in LOAD_ELEMENTS]
+    return [f"loads_{c}{d}" for c, d in ELEMENTS]
+
+
+def fibre_cells():
+    return [c for c in variants.CELLS if any(c == cell for cell, _ in ELEMENTS)]
 
 
 def law_prefixes(law, sets, extra):
@@ -135,7 +159,7 @@ def registry_source(laws, sets, extra):
              '#include "form_registry.h"', "#include <limits>"]
     lines += [f'#include "{variants.variant_name(*v)}.h"' for v in fe]
     lines += [f'#include "mp_{k}.h"' for k in sets]
-    lines += [f'#include "fibre_{c}.h"' for c in variants.CELLS]
+    lines += [f'#include "fibre_{c}.h"' for c in fibre_cells()]
     lines += [f'#include "{n}.h"' for n in load_prefixes()]
     lines += ["", "namespace", "{", "constexpr double inf = std::numeric_limits<double>::infinity();"]
     for v in fe:
@@ -145,7 +169,10 @@ def registry_source(laws, sets, extra):
                                 ("residual", "jacobian", "centre", "gradient", "hessian"))
             lines.append(f"const muscle::forms::FbarForms fbar_{n} = {{{kernels}, "
                          f"expression_{n}_fbar_centre_dilatation}};")
+    compiled = ",".join(f"{c}{d}" for c, d in ELEMENTS)
     lines += ["} // namespace", "", "namespace muscle::forms", "{", "",
+              f'const char* compiled_elements() {{ return "{compiled}"; }}',
+              f"const char* compiled_variants() {{ return {cpp_string(VARIANTS[0])}; }}", "",
               "const std::vector<LawInfo>& laws()", "{",
               "  static const std::vector<LawInfo> table = {"]
     lines += [law_source(law) for law in laws.values()]
@@ -172,13 +199,14 @@ def registry_source(laws, sets, extra):
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<FibreVariant>& fibre_variants()", "{",
               "  static const std::vector<FibreVariant> table = {"]
-    for c, name in variants.CELLS.items():
+    for c in fibre_cells():
+        name = variants.CELLS[c]
         lines.append(f'      {{"{name}", form_fibre_{c}_laplace, form_fibre_{c}_rhs, '
                      f'functionspace_form_fibre_{c}_laplace, expression_fibre_{c}_gradient}},')
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<LoadVariant>& load_variants()", "{",
               "  static const std::vector<LoadVariant> table = {"]
-    for (c, degree), n in zip(LOAD_ELEMENTS, load_prefixes()):
+    for (c, degree), n in zip(ELEMENTS, load_prefixes()):
         forms = ", ".join(f"form_{n}_{k}" for k in ("pressure_residual", "pressure_jacobian",
                                                     "traction_residual", "gravity_residual", "area",
                                                     "mass"))
@@ -196,7 +224,7 @@ def cmake_source(laws, sets, extra):
         files = " ".join(f"{p}.c" for p in law_prefixes(law, sets, extra))
         lines.append(f'set(MUSCLE_LAW_{law.name}_SOURCE "{law.source}")')
         lines.append(f"set(MUSCLE_LAW_{law.name}_FILES {files})")
-    lines.append(f"set(MUSCLE_FIBRE_FILES {' '.join(f'fibre_{c}.c' for c in variants.CELLS)})")
+    lines.append(f"set(MUSCLE_FIBRE_FILES {' '.join(f'fibre_{c}.c' for c in fibre_cells())})")
     lines.append(f"set(MUSCLE_LOAD_FILES {' '.join(f'{n}.c' for n in load_prefixes())})")
     return "\n".join(lines) + "\n"
 
@@ -214,7 +242,17 @@ def main():
     parser.add_argument("--cmake", help="write the generated-file lists for CMake to this file")
     parser.add_argument("--extra-variant", action="append", default=[],
                         help="KERNELS:CELL:DEGREE:QDEG[:VQDEG] added to the standard set")
+    parser.add_argument("--elements", default="all",
+                        help="all, or the elements to compile: hex1,hex2,tet1,tet2")
+    parser.add_argument("--variants", default="",
+                        help="compile only the FE variants whose name matches (Python re.search)")
     args = parser.parse_args()
+    ELEMENTS[:] = parse_elements(args.elements)
+    try:
+        re.compile(args.variants)
+    except re.error as e:
+        raise SystemExit(f"error: --variants {args.variants!r}: not a regular expression ({e})")
+    VARIANTS[0] = args.variants
 
     try:
         laws = laws_module.load_laws(args.material)
@@ -237,10 +275,10 @@ def main():
         for name in (laws if everything else args.law):
             compile_law(laws[name], sets, extra, outdir, parameters)
         if args.fibres or everything:
-            for c in variants.CELLS:
+            for c in fibre_cells():
                 compile_objects(variants.build_fibre_variant(c), f"fibre_{c}", outdir, parameters)
         if args.loads or everything:
-            for (c, d), n in zip(LOAD_ELEMENTS, load_prefixes()):
+            for (c, d), n in zip(ELEMENTS, load_prefixes()):
                 compile_objects(loads.build_load_variant(c, d), n, outdir, parameters)
     if args.registry or everything:
         write_if_changed(outdir / "form_registry.cpp", registry_source(laws, sets, extra))

@@ -72,7 +72,8 @@ LaplaceFibres laplace_fibres(std::shared_ptr<mesh::Mesh> mesh,
     if (cell == v.cell)
       variant = &v;
   if (!variant)
-    throw InputError("no fibre kernels for cell type " + cell);
+    throw InputError("no fibre kernels for cell type " + cell + "."
+                     + forms::element_not_compiled(cell, 1));
 
   auto V = std::make_shared<fem::FunctionSpace>(
       fem::create_functionspace(variant->function_space, "q", mesh));

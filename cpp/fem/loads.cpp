@@ -23,7 +23,7 @@ const forms::LoadVariant& variant_for(const fem::FunctionSpace& V)
     if (cell == v.cell and degree == v.degree)
       return v;
   throw InputError("loads: no compiled load forms for " + cell + " of degree "
-                   + std::to_string(degree));
+                   + std::to_string(degree) + "." + forms::element_not_compiled(cell, degree));
 }
 } // namespace
 

@@ -18,6 +18,16 @@ int default_quadrature_degree(const std::string& cell, int degree)
   return it == table.end() ? -1 : it->second;
 }
 
+std::string element_not_compiled(const std::string& cell, int degree)
+{
+  const std::string name = cell.substr(0, 3) + std::to_string(degree);
+  const std::string compiled = compiled_elements();
+  if (("," + compiled + ",").find("," + name + ",") != std::string::npos)
+    return "";
+  return " This build compiled the elements " + compiled + " only, not " + name
+         + ": `tools/muscle build` (or cmake -DMUSCLE_ELEMENTS=all) adds the others.";
+}
+
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
                                  int quadrature_degree,
@@ -56,18 +66,28 @@ const FeVariant& find_fe_variant(const std::string& model,
               + std::to_string(volumetric_quadrature_degree);
   if (fbar)
     wanted += " as F-bar element";
-  std::string why;
-  if (fbar)
+  // the likeliest reason first: a build for one job leaves whole elements out
+  std::string why = element_not_compiled(cell, degree);
+  if (why.empty() and *compiled_variants())
+    why = " This build compiled only the variants whose name matches \""
+          + std::string(compiled_variants())
+          + "\" (MUSCLE_VARIANTS): `tools/muscle build` (or cmake -DMUSCLE_VARIANTS=) adds "
+            "the others.";
+  else if (why.empty() and fbar)
     why = " F-bar is compiled for hexahedra of degree 1 with quadrature degree 2 (Q2 does "
           "not lock; on tetrahedra the centre value is the whole P1 field).";
-  else if (volumetric_quadrature_degree != quadrature_degree)
+  else if (why.empty() and volumetric_quadrature_degree != quadrature_degree)
     why = " The anti-locking element is compiled on hexahedra of degree 1 for the laws "
           "whose file gives volumetric_stiff_part (BLE: WKM, GIANT and COMBI need their "
           "coupled penalty at every quadrature point; BENCHMARKS.md). The locking-free "
           "Q1 of every law is the F-bar element (the default).";
+  // listed here, not with errors.h's join: the registry library does not link libmuscle
+  std::string listed;
+  for (const std::string& a : available)
+    listed += (listed.empty() ? "" : "; ") + a;
   throw InputError("no compiled kernels for model " + model + " on " + cell
                    + " degree " + std::to_string(degree) + " with " + wanted
-                   + "; compiled: " + join(available, "; ") + "." + why
+                   + "; compiled: " + listed + "." + why
                    + " Add a variant with cmake -DMUSCLE_EXTRA_VARIANTS="
                      "KERNELS:CELL:DEGREE:QDEG[:VQDEG] (cell hex or tet) and rebuild.");
 }

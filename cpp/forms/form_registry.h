@@ -118,6 +118,15 @@ struct LoadVariant
 
 const std::vector<FeVariant>& fe_variants();
 const std::vector<LoadVariant>& load_variants();
+
+/// The elements this build compiled, "hex1,hex2,tet1,tet2" (CMake's MUSCLE_ELEMENTS).
+const char* compiled_elements();
+/// The regular expression the compiled variants' names match ("": every variant;
+/// CMake's MUSCLE_VARIANTS).
+const char* compiled_variants();
+/// "" if the element (cell "hexahedron" / "tetrahedron", degree) is compiled,
+/// else a sentence saying that the build left it out and how to add it.
+std::string element_not_compiled(const std::string& cell, int degree);
 const std::vector<FibreVariant>& fibre_variants();
 const std::vector<MaterialPointVariant>& material_point_variants();
 
