@@ -574,6 +574,24 @@ def richardson_table(res):
                      "observed order p", "extrapolated", "error bar of n = 4 (GCI)"], rows)
 
 
+@table
+def fresh_machine_table(res):
+    """`tools/muscle run` in a new build tree (phase fresh), apt from --apt-seconds."""
+    f = res.raw["fresh_machine"]
+    ffcx = f["ffcx"]
+    total = f["apt_seconds"] + f["wall"]
+    rows = [["apt (`tools/muscle deps`, every package missing)", f"{f['apt_seconds']:.0f} s"],
+            ["build: configure, FFCx, compile, link "
+             f"({f['generated_c_files']} generated C files)", f"{f['build_wall']:.0f} s"],
+            ["  of which FFCx (CPU, summed over its calls, some in parallel)",
+             f"{ffcx['cpu']:.0f} s"],
+            ["run: load cases, fusiform isometric and free, pictures", f"{f['run_wall']:.0f} s"],
+            ["**to the last result**", f"**{total:.0f} s = {total / 60:.1f} min**"]]
+    return md_table(["part", "wall"], rows) + (
+        f"\n\nCPU of build and run: {f['cpu']:.0f} s on {f['cores']} cores; 1-minute load "
+        f"average {f['loadavg_before'][0]:.2f} before, {f['loadavg_after'][0]:.2f} after.")
+
+
 ACCURACY_LEVELS = (0.05, 0.01, 0.001)
 
 
