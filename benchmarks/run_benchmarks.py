@@ -46,6 +46,7 @@ import sys
 import time
 
 import report
+import stiffsoft
 from report import LINE_SEARCHES
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -453,6 +454,7 @@ def collect(args):
                 data["e2e"][r["name"]] = r
         if r["model"] == "combi" and r["solver"] == "lu" and r["ranks"] == 1:
             data["map"][r["name"]] = r
+    data["stiffsoft"] = stiffsoft.collect(args.work)
     path = os.path.join(args.work, "experiment_fno_math_errno.json")
     if os.path.exists(path):  # hand-made experiment, see BENCHMARKS.md
         with open(path) as f:
@@ -662,11 +664,7 @@ def scene_run(args, scene, method, timeout):
     before = loadavg()
     print("  " + " ".join(command), flush=True)
     start = time.time()
-    try:
-        result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-        returncode, stderr = result.returncode, result.stderr
-    except subprocess.TimeoutExpired:
-        returncode, stderr = "timeout", f"killed after {timeout} s"
+    returncode, stderr = stiffsoft.run_with_timeout(command, timeout)
     record = {"name": name, "scene": scene, "method": method, "returncode": returncode,
               "elapsed": time.time() - start, "loadavg_before": before,
               "command": " ".join(shlex.quote(c) for c in command), "completed": False}
@@ -904,12 +902,16 @@ def update_results(args, data):
                "knob_runs": list(data.get("knobs", {}).values()),
                "fbar_runs": list(data.get("fbar", {}).values()),
                "line_search_runs": list(data.get("linesearch", {}).values()),
+               "stiff_soft_runs": list(data.get("stiffsoft", {}).values()),
                "experiments": data.get("experiments", {})}
     if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
         with open(args.results) as f:
-            for key, value in json.load(f).items():
-                if not results.get(key):  # e.g. instruction counts not re-measured
-                    results[key] = value
+            old = json.load(f)
+        for key, value in old.items():
+            if not results.get(key):  # e.g. instruction counts not re-measured
+                results[key] = value
+        # the old file's order first: a diff shows what changed, not what moved
+        results = {**{k: results[k] for k in old}, **results}
     with open(args.results, "w") as f:
         json.dump(results, f, indent=1)
     print(f"wrote {args.results}")
@@ -961,7 +963,9 @@ def main():
               **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
                  for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
               "knobs": phase_knobs, "fbar": phase_fbar, "restore": phase_restore,
-              "linesearch": phase_linesearch,
+              "linesearch": phase_linesearch, "stiffsoft": stiffsoft.phase,
+              "stiffsoft-blocks": lambda a, r: stiffsoft.phase(a, r, ("blocks",)),
+              "stiffsoft-shoulder": lambda a, r: stiffsoft.phase(a, r, ("shoulder",)),
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

@@ -24,9 +24,11 @@ struct NewtonOptions
   /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG) or "gmres-gamg" (with the rigid-body
   /// near-null space)
   std::string linear_solver = "lu";
-  /// GAMG's near-null space: "bodies", six rigid-body modes per separately
-  /// meshed body (mesh_bodies), or "global", six for the whole mesh.
-  std::string near_null_space = "bodies";
+  /// GAMG's near-null space: "global", six rigid-body modes for the whole mesh,
+  /// or "bodies", six per separately meshed body (mesh_bodies).  Global by
+  /// measurement: per body needed more Krylov iterations on every stiff-soft
+  /// contrast and on the shoulder (BENCHMARKS.md, "Stiff-soft bodies").
+  std::string near_null_space = "global";
   /// GAMG: the tie-reduced matrix carries block size 3 where its unknowns are
   /// whole nodes (DisplacementConstraint::keeps_whole_nodes), so that GAMG
   /// aggregates nodes, not single components.

@@ -25,9 +25,10 @@ MeshBodies mesh_bodies(const dolfinx::fem::FunctionSpace& V);
 /// set takes the mode's mean; a tie keeps the master's values).  Without them
 /// GAMG coarsens the free muscle's system as a scalar problem (BENCHMARKS.md).
 /// `per_body`: six modes of each body of mesh_bodies, each nonzero on that body
-/// only -- a stiff body tied to a soft one moves almost rigidly against it, a
-/// motion the global six miss (BENCHMARKS.md, "Stiff-soft bodies"); with one
-/// body the same six.  An orthonormal basis; the caller destroys the null space.
+/// only (with one body the same six); GAMG then carries 6 x bodies coarse
+/// unknowns per aggregate, and needed more iterations than with the global six
+/// (BENCHMARKS.md, "Stiff-soft bodies").  An orthonormal basis; the caller
+/// destroys the null space.
 MatNullSpace rigid_body_modes(const dolfinx::fem::FunctionSpace& V,
                               const DisplacementConstraint* constraint, bool per_body);
 
