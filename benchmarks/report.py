@@ -258,6 +258,8 @@ def make_helpers(res):
                                                                        ranks),
             "shoulder_step_time": shoulder_step_time, "shoulder_core_share": shoulder_core_share,
             "richardson": lambda *runs, key: richardson(*(r[key] for r in runs)),
+            "stiff_soft": lambda config, contrast=None, study="stiff_soft": stiff_soft_run(
+                raw, config, contrast, study),
             "min": min, "max": max, "abs": abs, "round": round, "log2": math.log2}
 
 
@@ -730,6 +732,84 @@ def line_search_table(res):
         totals.append(f"{len(ok)}/{len(done)} / {sum(r['newton_iterations'] for r in ok)} / "
                       f"{sum(r.get('wall_time') or 0 for r in ok):.0f}")
     return md_table(["case"] + list(LINE_SEARCHES), rows + [totals])
+
+
+# ---------------------------------------------------------------------------
+# stiff-soft bodies (results.json: stiff_soft_runs, phase stiffsoft)
+# ---------------------------------------------------------------------------
+STIFF_SOFT_CONFIGS = {"gamg-global-bs1": "global modes, bs 1", "gamg-global": "global, bs 3",
+                      "gamg-bodies-bs1": "per body, bs 1", "gamg-bodies": "per body, bs 3"}
+
+
+def stiff_soft_run(raw, config, contrast=None, study="stiff_soft"):
+    """A run of phase stiffsoft: a configuration (lu, gamg-global-bs1, ..., gamg-bodies)
+    at a contrast (stiff_soft) or on the shoulder (study="shoulder"); with
+    krylov_per_newton and the largest relative difference of its final values from
+    MUMPS's (difference)."""
+    runs = [r for r in raw["stiff_soft_runs"] if r["study"] == study]
+    pick = lambda c: next(r for r in runs if r["config"] == c  # noqa: E731
+                          and (contrast is None or r.get("contrast") == contrast))
+    r, lu = pick(config), pick("lu")
+    out = Obj(r)
+    if r.get("completed"):
+        out["krylov_per_newton"] = r["linear_iterations"] / r["newton_iterations"]
+        out["difference"] = max(abs(v - lu["final"][k]) / max(abs(lu["final"][k]), 1e-300)
+                                for k, v in r["final"].items())
+    return out
+
+
+def stiff_soft_cell(r):
+    if not r.get("completed"):
+        return f"exit {r.get('returncode')}"
+    return (f"{r['krylov_per_newton']:.1f} ({r['newton_iterations']}; "
+            f"{r['wall_time']:.0f} s)")
+
+
+@table
+def stiff_soft_table(res):
+    """Krylov its per Newton it (Newton its; wall) of each GAMG configuration against the
+    stiffness contrast, MUMPS's Newton its and answer, the largest GAMG-MUMPS difference."""
+    raw = res.raw
+    contrasts = sorted({r["contrast"] for r in raw["stiff_soft_runs"]
+                        if r["study"] == "stiff_soft"})
+    rows = []
+    for c in contrasts:
+        lu = stiff_soft_run(raw, "lu", c)
+        runs = [stiff_soft_run(raw, k, c) for k in STIFF_SOFT_CONFIGS]
+        done = [r["difference"] for r in runs if r.get("completed")]
+        loads = [r["loadavg_before"][0] for r in runs + [lu]]
+        rows.append([fmt(c, "g"), fmt(lu["E"], ".4g"),
+                     f"{lu['newton_iterations']} ({lu['wall_time']:.0f} s)",
+                     fmt(lu["final"]["force"], ".5g")]
+                    + [stiff_soft_cell(r) for r in runs]
+                    + [fmt(max(done), ".1e") if done else "-",
+                       f"{min(loads):.1f}-{max(loads):.1f}"])
+    return md_table(["contrast", "bone E [kPa]", "MUMPS Newton its", "force [mN]"]
+                    + list(STIFF_SOFT_CONFIGS.values())
+                    + ["largest GAMG-MUMPS difference", "load"], rows)
+
+
+@table
+def stiff_soft_shoulder_table(res):
+    """The shoulder's first steps: MUMPS, GAMG before (global modes, block size 1) and
+    after (per body, block size 3)."""
+    raw = res.raw
+    names = {"lu": "MUMPS", **STIFF_SOFT_CONFIGS}
+    rows = []
+    configs = [r["config"] for r in raw["stiff_soft_runs"] if r["study"] == "shoulder"]
+    for config in sorted(configs, key=list(names).index):
+        r = stiff_soft_run(raw, config, study="shoulder")
+        done = r.get("completed")
+        rows.append([names[r["config"]], r.get("bodies", "-"), fmt(r.get("unknowns"), ","),
+                     r.get("steps", "-"), r.get("newton_iterations", "-"),
+                     r.get("linear_iterations", "-"),
+                     fmt(r["krylov_per_newton"], ".1f") if done else "-",
+                     fmt(r["solve_s"] / r["steps"], ".2f") if done else f"exit {r['returncode']}",
+                     fmt(r["difference"], ".1e") if done else "-",
+                     f"{r['loadavg_before'][0]:.2f}"])
+    return md_table(["GAMG near-null space", "bodies", "unknowns", "steps", "Newton its",
+                     "Krylov its", "Krylov / Newton", "solve [s/step]",
+                     "largest difference from MUMPS", "load"], rows)
 
 
 # ---------------------------------------------------------------------------

@@ -48,6 +48,7 @@ import sys
 import time
 
 import report
+import stiffsoft
 from report import LINE_SEARCHES
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -459,6 +460,7 @@ def collect(args):
     if os.path.exists(path):
         with open(path) as f:
             data["fresh"] = json.load(f)
+    data["stiffsoft"] = stiffsoft.collect(args.work)
     path = os.path.join(args.work, "experiment_fno_math_errno.json")
     if os.path.exists(path):  # hand-made experiment, see BENCHMARKS.md
         with open(path) as f:
@@ -668,11 +670,7 @@ def scene_run(args, scene, method, timeout):
     before = loadavg()
     print("  " + " ".join(command), flush=True)
     start = time.time()
-    try:
-        result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-        returncode, stderr = result.returncode, result.stderr
-    except subprocess.TimeoutExpired:
-        returncode, stderr = "timeout", f"killed after {timeout} s"
+    returncode, stderr = stiffsoft.run_with_timeout(command, timeout)
     record = {"name": name, "scene": scene, "method": method, "returncode": returncode,
               "elapsed": time.time() - start, "loadavg_before": before,
               "command": " ".join(shlex.quote(c) for c in command), "completed": False}
@@ -967,12 +965,16 @@ def update_results(args, data):
                "fbar_runs": list(data.get("fbar", {}).values()),
                "line_search_runs": list(data.get("linesearch", {}).values()),
                "fresh_machine": data.get("fresh", {}),
+               "stiff_soft_runs": list(data.get("stiffsoft", {}).values()),
                "experiments": data.get("experiments", {})}
     if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
         with open(args.results) as f:
-            for key, value in json.load(f).items():
-                if not results.get(key):  # e.g. instruction counts not re-measured
-                    results[key] = value
+            old = json.load(f)
+        for key, value in old.items():
+            if not results.get(key):  # e.g. instruction counts not re-measured
+                results[key] = value
+        # the old file's order first: a diff shows what changed, not what moved
+        results = {**{k: results[k] for k in old}, **results}
     with open(args.results, "w") as f:
         json.dump(results, f, indent=1)
     print(f"wrote {args.results}")
@@ -1027,6 +1029,9 @@ def main():
                  for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
               "knobs": phase_knobs, "fbar": phase_fbar, "restore": phase_restore,
               "linesearch": phase_linesearch, "fresh": phase_fresh,
+              "linesearch": phase_linesearch, "stiffsoft": stiffsoft.phase,
+              "stiffsoft-blocks": lambda a, r: stiffsoft.phase(a, r, ("blocks",)),
+              "stiffsoft-shoulder": lambda a, r: stiffsoft.phase(a, r, ("shoulder",)),
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

@@ -33,6 +33,10 @@ public:
   /// Number of reduced unknowns over all ranks.
   std::int64_t reduced_size() const;
 
+  /// Whether the reduced unknowns are whole nodes, three components in a row on
+  /// every rank (then T^T J T carries block size 3, as J does).
+  virtual bool keeps_whole_nodes() const { return false; }
+
 protected:
   /// x[reduced_index[i]] = u[i] for the owned dofs that are reduced unknowns.
   void copy_free_dofs(const dolfinx::la::Vector<double>& u, PetscScalar* x) const;

@@ -19,7 +19,10 @@ void NonlinearSolver::reduce(Mat J, bool first)
   // takes the same, collective, branch)
   const bool changed = state != _reduced_state;
   if (first)
+  {
     MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_red);
+    MatSetBlockSize(_A_red, _reduced_bs);
+  }
   else if (changed)
   {
     // A gained nonzeros (contact): a new product of our own, copied into J (which
@@ -31,6 +34,7 @@ void NonlinearSolver::reduce(Mat J, bool first)
     if (_ptap)
       MatDestroy(&_ptap);
     MatPtAP(_A, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_ptap);
+    MatSetBlockSize(_ptap, _reduced_bs);
     MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
     MatCopy(_ptap, J, DIFFERENT_NONZERO_PATTERN);
   }

@@ -19,6 +19,12 @@ const std::vector<std::string>& NewtonOptions::line_searches()
   return names;
 }
 
+const std::vector<std::string>& NewtonOptions::near_null_spaces()
+{
+  static const std::vector<std::string> names = {"bodies", "global"};
+  return names;
+}
+
 void NewtonOptions::validate() const
 {
   auto check = [](const char* option, const std::string& value,
@@ -30,6 +36,7 @@ void NewtonOptions::validate() const
   };
   check("linear solver", linear_solver, linear_solvers());
   check("line search", line_search, line_searches());
+  check("near-null space", near_null_space, near_null_spaces());
   if (!(rtol > 0 and atol > 0 and linear_rtol > 0 and linear_rtol < 1))
     throw InputError("Newton tolerances must be > 0 and the linear rtol below 1");
 }

@@ -78,6 +78,9 @@ NonlinearSolver::NonlinearSolver(
   const bool three_field
       = _options.fbar_cell_unknowns
         and std::all_of(_parts.begin(), _parts.end(), [](auto* p) { return p->fbar(); });
+  if (_constraint and _options.linear_solver == "gmres-gamg" and _options.reduced_blocks
+      and _constraint->keeps_whole_nodes())
+    _reduced_bs = bs;
   if (_constraint)
   {
     _x = _constraint->create_reduced_vector();
@@ -160,7 +163,8 @@ void NonlinearSolver::configure_linear_solver(KSP linear)
     else
     {
       PCSetType(pc, PCGAMG);
-      _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get());
+      _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get(),
+                                          _options.near_null_space == "bodies");
       if (!_constraint)
         MatSetNearNullSpace(_A, _near_null_space);
       else if (_A_red)

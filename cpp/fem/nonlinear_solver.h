@@ -24,6 +24,15 @@ struct NewtonOptions
   /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG) or "gmres-gamg" (with the rigid-body
   /// near-null space)
   std::string linear_solver = "lu";
+  /// GAMG's near-null space: "global", six rigid-body modes for the whole mesh,
+  /// or "bodies", six per separately meshed body (mesh_bodies).  Global by
+  /// measurement: per body needed more Krylov iterations on every stiff-soft
+  /// contrast and on the shoulder (BENCHMARKS.md, "Stiff-soft bodies").
+  std::string near_null_space = "global";
+  /// GAMG: the tie-reduced matrix carries block size 3 where its unknowns are
+  /// whole nodes (DisplacementConstraint::keeps_whole_nodes), so that GAMG
+  /// aggregates nodes, not single components.
+  bool reduced_blocks = true;
   /// Relative tolerance of the iterative linear solvers (Newton converges
   /// quadratically down to about this reduction per step).
   double linear_rtol = 1e-10;
@@ -47,9 +56,10 @@ struct NewtonOptions
   int stagnation_window = 5;
   double stagnation_reduction = 1e-3;
 
-  /// The names linear_solver and line_search accept.
+  /// The names linear_solver, line_search and near_null_space accept.
   static const std::vector<std::string>& linear_solvers();
   static const std::vector<std::string>& line_searches();
+  static const std::vector<std::string>& near_null_spaces();
   /// InputError naming the option, its value and what is allowed.
   void validate() const;
 };
@@ -215,6 +225,7 @@ private:
   Mat _A = nullptr;       ///< full Jacobian
   Mat _A_red = nullptr;   ///< T^T A T when constrained
   Mat _ptap = nullptr;    ///< T^T A T recomputed after A gained nonzeros, copied into _A_red
+  int _reduced_bs = 1;    ///< block size of _A_red (GAMG: 3 on whole nodes)
   MatNullSpace _near_null_space = nullptr; ///< rigid-body modes of the matrix GAMG sees
   Vec _x = nullptr;       ///< SNES iterate (a copy of u's owned part, or reduced)
   Vec _u_petsc = nullptr; ///< wraps u's owned part (unconstrained case)

@@ -191,6 +191,16 @@ TieConstraint::TieConstraint(const fem::FunctionSpace& V, const std::vector<Pair
   for (std::int32_t i = 0; i < _num_owned; ++i)
     if (!is_slave(i))
       _reduced_index[i] = n++;
+  int whole = 1;
+  for (std::int32_t b = 0; b < owned_blocks; ++b)
+  {
+    int slaves = 0;
+    for (int k = 0; k < bs; ++k)
+      slaves += is_slave(bs * b + k);
+    whole = whole and (slaves == 0 or slaves == bs);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &whole, 1, MPI_INT, MPI_MIN, comm);
+  _whole_nodes = whole;
   std::int64_t offset = 0;
   MPI_Exscan(&n, &offset, 1, MPI_INT64_T, MPI_SUM, comm);
   int rank;

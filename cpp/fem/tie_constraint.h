@@ -42,6 +42,9 @@ public:
 
   Mat T() const override { return _T; }
   void restrict_to(const dolfinx::la::Vector<double>& u, Vec x) const override;
+  /// True unless a slave node has a Dirichlet condition on one or two
+  /// components (they stay unknowns, the others follow the master).
+  bool keeps_whole_nodes() const override { return _whole_nodes; }
 
   /// Slave nodes over all ranks, and the largest slave-to-master distance found.
   std::int64_t slave_nodes() const { return _slave_nodes; }
@@ -52,6 +55,7 @@ private:
   std::int32_t _num_owned = 0;               ///< unrolled
   std::int64_t _slave_nodes = 0;
   double _largest_gap = 0;
+  bool _whole_nodes = true;
 };
 
 } // namespace muscle

@@ -5,6 +5,7 @@
 #include "../fem/boundary.h"
 #include "../fem/element_choice.h"
 #include "../fem/point_probe.h"
+#include "../fem/rigid_body_modes.h"
 #include "../fem/uniform_constraint.h"
 #include "../material/material_point.h"
 #include "../material/time_functions.h"
@@ -488,6 +489,8 @@ nlohmann::json describe_built(const Scene& scene, const SceneModel& model, bool 
                       {"degree", scene.mesh.degree},
                       {"fbar", model.element.fbar}};
   built["unknowns"] = unknowns;
+  // separately meshed bodies: GAMG's near-null space has six modes per body
+  built["bodies"] = mesh_bodies(*model.problem().V()).count;
   if (model.body.size() > 1)
     built["parts"] = built_parts;
   if (!quiet and is_root())

@@ -1017,7 +1017,7 @@ Scene parse_scene(const std::string& text, const std::string& name,
   {
     s.require_map({"linear", "line_search", "rtol", "atol", "max_iterations",
                    "stagnation_window", "linear_rtol", "fbar_cell_unknowns", "root_tolerance",
-                   "petsc"});
+                   "near_null_space", "reduced_blocks", "petsc"});
     scene.newton.linear_solver = s["linear"].defined()
                                      ? s["linear"].choice(NewtonOptions::linear_solvers())
                                      : "lu";
@@ -1033,6 +1033,10 @@ Scene parse_scene(const std::string& text, const std::string& name,
         = s["stagnation_window"].integer(scene.newton.stagnation_window, 0, 1000);
     scene.newton.linear_rtol = s["linear_rtol"].positive(scene.newton.linear_rtol);
     scene.newton.fbar_cell_unknowns = s["fbar_cell_unknowns"].flag(true);
+    if (s["near_null_space"].defined())
+      scene.newton.near_null_space
+          = s["near_null_space"].choice(NewtonOptions::near_null_spaces());
+    scene.newton.reduced_blocks = s["reduced_blocks"].flag(true);
     scene.root_tolerance = s["root_tolerance"].number(scene.root_tolerance);
     if (!(scene.root_tolerance >= 1e-16 and scene.root_tolerance < 1))
       s["root_tolerance"].fail("'" + s["root_tolerance"].text() + "' must be from 1e-16 "
