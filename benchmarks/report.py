@@ -70,7 +70,8 @@ def wrap(value):
 
 
 # lists of run records in results.json (a record may stand in several)
-RUN_LISTS = ("end_to_end", "solvers", "map_runs", "fbar_runs", "knob_runs", "line_search_runs")
+RUN_LISTS = ("end_to_end", "solvers", "map_runs", "fbar_runs", "knob_runs", "line_search_runs",
+             "kappa_runs")
 
 
 class Results:
@@ -117,6 +118,16 @@ RUNS = {
     "p1_free": "combi_free_tet1_n1_dt0.05_lu_np1",
     "p2_iso": "combi_isometric_tet2_n1_dt0.05_lu_np1_snes_max_it10",
     "p2_free": "combi_free_tet2_n1_dt0.05_lu_np1_snes_max_it10",
+    # the kappa study (F-bar, n = 1, GMRES rtol 1e-6)
+    "kp_lu_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_lu_np1_kappa1000",
+    "kp_gamg_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000",
+    "kp_sor_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000"
+                    "_mg_levels_pc_typesor_mg_levels_pc_sor_diagonal_shift1e-8",
+    "kp_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100",
+    "kp_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000",
+    "kp_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000",
+    "kp2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
+    "kp2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000",
     # Q2: the reference of the map, its quadrature variants, kappa = 100
     "q2_iso": "combi_isometric_hex2_n1_dt0.05_lu_np1",
     "q2_free": "combi_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
@@ -489,6 +500,78 @@ def fbar_penalty_table(res):
 
 
 SOLVER_NAMES = {"lu": "MUMPS", "gmres-gamg": "GAMG", "gmres-hypre": "BoomerAMG"}
+
+
+KAPPA_CANDIDATES = ("MUMPS", "GAMG", "GAMG, SOR levels", "BoomerAMG, systems", "penalty split")
+
+
+def kappa_of(r):
+    return float(r["sets"][0].split("=")[1])
+
+
+def kappa_groups(res):
+    """The kappa study's runs by (candidate, n, ranks), in the page's order; the kappas."""
+    runs = res.raw.get("kappa_runs") or []
+    kappas = sorted({kappa_of(r) for r in runs})
+    groups = {}
+    for r in runs:
+        groups.setdefault((r["candidate"], r["case"], r["n"], r["ranks"]), {})[kappa_of(r)] = r
+    order = sorted(groups, key=lambda g: (g[1] != "isometric", g[2],
+                                          KAPPA_CANDIDATES.index(g[0])))
+    return [(g, groups[g]) for g in order], kappas
+
+
+@table
+def kappa_table(res):
+    """Newton iterations / Krylov iterations per Newton iteration, against kappa and n
+    (isometric)."""
+    groups, kappas = kappa_groups(res)
+    rows = []
+    for (label, case, n, ranks), by_kappa in groups:
+        if case != "isometric":
+            continue
+        cells = []
+        for k in kappas:
+            r = by_kappa.get(k)
+            if r is None:
+                cells.append("not run")
+            elif not r.get("completed"):
+                cells.append("fails" if r.get("returncode") == 3 else "stopped")
+            else:
+                cells.append(f"{r['newton_iterations']} / {fmt(r['krylov_per_newton'], '.0f')}")
+        rows.append([label, n, ranks] + cells)
+    return md_table(["preconditioner", "n", "ranks"] + [f"kappa = {k:g}" for k in kappas], rows)
+
+
+@table
+def kappa_runs_table(res):
+    """Every run of the kappa study: F33 against MUMPS's, cost."""
+    groups, kappas = kappa_groups(res)
+    mumps = {(case, n, k): r for (label, case, n, ranks), by_kappa in groups
+             if label == "MUMPS" for k, r in by_kappa.items() if r.get("completed")}
+    rows = []
+    for (label, case, n, ranks), by_kappa in groups:
+        for k in kappas:
+            r = by_kappa.get(k)
+            if r is None:
+                continue
+            done = r.get("completed")
+            ref = mumps.get((case, n, k))
+            value = "F33" if case == "isometric" else "epsilon"
+            diff = abs(r[value] / ref[value] - 1) if done and ref and label != "MUMPS" else None
+            rows.append([label, case, n, ranks, f"{k:g}",
+                         (fmt(r["F33"], ",.2f") if case == "isometric"
+                          else fmt(r["epsilon"], ".5f")) if done else "-",
+                         fmt(diff, ".0e") if diff is not None else "-",
+                         f"{r['elapsed']:.1f}" + ("" if done else f" (exit {r['returncode']})"),
+                         fmt(r.get("cpu_time"), ".1f"),
+                         r.get("newton_iterations") if done else "-",
+                         r.get("cutbacks") if done else "-",
+                         fmt(r.get("peak_rss_MiB"), ",.0f"), load_str(r)])
+    return md_table(["preconditioner", "case", "n", "ranks", "kappa", "F33 [mN] / epsilon",
+                     "relative to MUMPS",
+                     "wall [s]", "CPU [s]", "Newton its", "cutbacks", "peak RSS / process [MiB]",
+                     "load before/after"], rows)
 
 
 @table

@@ -26,6 +26,11 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             four models' fusiform runs (F-bar, n = 1) and the block demo scenes
   fresh     `tools/muscle run` in a new build tree: build (configure, FFCx, compile)
             and run (apt: --apt-seconds, timed on a fresh machine)
+  kappa     preconditioners against the penalty: COMBI isometric F-bar, kappa = 10 ...
+            10^4, MUMPS / GAMG / GAMG with SOR levels / BoomerAMG for systems / the
+            penalty split (gmres-schur), n = 1 on one rank and n = 2 on two
+            (--kappa-refinements, --kappa-candidates, --kappas)
+  kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
   report    benchmarks/results.json and docs/images/speed_accuracy*.png from
@@ -121,8 +126,10 @@ class Records:
 
 
 def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc=(),
-             fbar=False, rtol=None):
+             fbar=False, rtol=None, study=None):
     name = f"{model}_{case}_{cell}{degree}{'fbar' if fbar else ''}_n{n}_dt{dt:g}_{solver}_np{np}"
+    if study:  # a study's own runs, apart from the same settings in other phases
+        name = f"{study}_{name}"
     if rtol is not None:
         name += f"_rtol{rtol:g}"
     for s in sets:
@@ -134,10 +141,10 @@ def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc
 
 def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, dt=0.05,
              solver="lu", np=1, sets=(), petsc=(), timeout=None, group=None, fbar=False,
-             rtol=None):
+             rtol=None, study=None):
     """One fusiform run (cached with --reuse); returns a flat record.  fbar: the F-bar
     hexahedron (three-field Newton); rtol: --linear-rtol of the iterative solvers."""
-    name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc, fbar, rtol)
+    name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc, fbar, rtol, study)
     out = os.path.join(args.work, "runs", name)
     summary_path = os.path.join(out, "summary.json")
     record_path = os.path.join(out, "record.json")
@@ -409,7 +416,8 @@ def collect(args):
     drivers writing records.json at once)."""
     import glob
     data = {"assembly": {}, "instructions": {}, "e2e": {}, "solvers": {}, "map": {},
-            "knobs": {}, "fbar": {}, "linesearch": {}}
+            "knobs": {}, "fbar": {}, "linesearch": {},
+            "kappa": {}}
     for element in ("Q1", "Q2", "P1", "P2", "Q1F"):
         path = os.path.join(args.work, f"assembly_{element}_n{args.assembly_n}.json")
         if os.path.exists(path):
@@ -436,6 +444,9 @@ def collect(args):
             continue
         r.setdefault("petsc", [])
         r.setdefault("fbar", False)
+        if r.get("group") == "kappa":
+            data["kappa"][r["name"]] = r
+            continue
         if r["fbar"] or r.get("group") == "fbar":
             data["fbar"][r["name"]] = r
             # a discretisation like the others on the map (LU, one rank)
@@ -509,6 +520,67 @@ def phase_fbar(args, records):
         records.put("fbar", r["name"], r)
 
 
+# Preconditioners against the penalty (issue 18): which of the standard ones for nearly
+# incompressible elasticity keeps the Krylov count flat in kappa and n.  Name -> (linear
+# solver, PETSc options); MUMPS is the reference F33.
+KAPPA_CANDIDATES = {
+    "MUMPS": ("lu", ()),
+    "GAMG": ("gmres-gamg", ()),
+    "GAMG, SOR levels": ("gmres-gamg", ("-mg_levels_pc_type sor",
+                                        "-mg_levels_pc_sor_diagonal_shift 1e-8")),
+    "BoomerAMG, systems": ("gmres-hypre", ("-pc_hypre_boomeramg_numfunctions 3",
+                                           "-pc_hypre_boomeramg_nodal_coarsen 6",
+                                           "-pc_hypre_boomeramg_strong_threshold 0.6")),
+    "penalty split": ("gmres-schur", ()),
+}
+
+
+def kappa_runs(args):
+    """COMBI isometric F-bar at kappa = 10 ... 10^4 with every candidate: n = 1 on one rank,
+    n = 2 on two ranks (--kappa-refinements)."""
+    runs = []
+    for n in args.kappa_refinements:
+        for label in args.kappa_candidates:
+            solver, petsc = KAPPA_CANDIDATES[label]
+            for kappa in args.kappas:
+                runs.append(dict(label=label, solver=solver, petsc=petsc, n=n,
+                                 np=1 if n == 1 else 2, sets=(f"kappa={kappa:g}",),
+                                 rtol=None if solver == "lu" else 1e-6))
+    return runs
+
+
+def kappa_run(args, records, label, **kw):
+    r = fusiform(args, fbar=True, dt=args.e2e_dt, group="kappa", study="kappa", **kw)
+    r["candidate"] = label
+    if "skipped" not in r:
+        with open(os.path.join(args.work, "runs", r["name"], "record.json"), "w") as f:
+            json.dump(r, f, indent=1)
+        records.put("kappa", r["name"], r)
+    return r
+
+
+def phase_kappa(args, records):
+    """The candidates against kappa and n; a candidate that failed at n = 1 is not run
+    at n = 2 (a failure burns every cutback)."""
+    failed = set()
+    for kw in kappa_runs(args):
+        label = kw.pop("label")
+        if kw["n"] > 1 and label in failed:
+            print(f"  skip {label} n={kw['n']}: failed at n = 1", flush=True)
+            continue
+        r = kappa_run(args, records, label, timeout=args.kappa_timeout * kw["n"] ** 3, **kw)
+        if not r.get("completed"):
+            failed.add(label)
+
+
+def phase_kappa_n4(args, records):
+    """Issue 18's target: n = 4 (385,155 unknowns) at the preset kappa on two ranks with
+    the penalty split, isometric and free."""
+    for case in ("isometric", "free"):
+        kappa_run(args, records, "penalty split", case=case, n=4, np=2, solver="gmres-schur",
+                  sets=("kappa=1000",), rtol=1e-6, timeout=args.map_timeout)
+
+
 def phase_restore(args, records):
     """Seed WORK with the records saved in --results (runs of earlier sessions), so that
     the report keeps them; GAMG runs from before the near-null-space fixes (2026-12-01:
@@ -519,7 +591,7 @@ def phase_restore(args, records):
         not r.get("near_null_space_fixed")
         or (r.get("case") == "free" and not r.get("reduced_near_null_space")))
     count = 0
-    for key in ("end_to_end", "solvers", "map_runs", "knob_runs", "fbar_runs"):
+    for key in ("end_to_end", "solvers", "map_runs", "knob_runs", "fbar_runs", "kappa_runs"):
         for r in saved.get(key) or []:
             folder = os.path.join(args.work, "runs", r["name"])
             path = os.path.join(folder, "record.json")
@@ -966,6 +1038,7 @@ def update_results(args, data):
                "line_search_runs": list(data.get("linesearch", {}).values()),
                "fresh_machine": data.get("fresh", {}),
                "stiff_soft_runs": list(data.get("stiffsoft", {}).values()),
+               "kappa_runs": list(data.get("kappa", {}).values()),
                "experiments": data.get("experiments", {})}
     if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
         with open(args.results) as f:
@@ -1010,6 +1083,12 @@ def main():
     parser.add_argument("--map-extra", type=json.loads, nargs="*", default=[],
                         help='more map runs as JSON, e.g. \'{"cell": "hex", "degree": 2, '
                              '"n": 2, "dt": 0.15}\'')
+    parser.add_argument("--kappas", type=float, nargs="+", default=[10, 100, 1000, 10000])
+    parser.add_argument("--kappa-candidates", nargs="+", default=list(KAPPA_CANDIDATES),
+                        choices=list(KAPPA_CANDIDATES))
+    parser.add_argument("--kappa-refinements", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--kappa-timeout", type=float, default=300,
+                        help="seconds for an n = 1 run of phase kappa (n^3 times that at n)")
     parser.add_argument("--reference", default=None,
                         help="map reference as ELEMENT_nN (default: most unknowns)")
     args = parser.parse_args()
@@ -1028,10 +1107,10 @@ def main():
               **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
                  for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
               "knobs": phase_knobs, "fbar": phase_fbar, "restore": phase_restore,
-              "linesearch": phase_linesearch, "fresh": phase_fresh,
-              "linesearch": phase_linesearch, "stiffsoft": stiffsoft.phase,
+              "linesearch": phase_linesearch, "fresh": phase_fresh, "stiffsoft": stiffsoft.phase,
               "stiffsoft-blocks": lambda a, r: stiffsoft.phase(a, r, ("blocks",)),
               "stiffsoft-shoulder": lambda a, r: stiffsoft.phase(a, r, ("shoulder",)),
+              "kappa": phase_kappa, "kappa-n4": phase_kappa_n4,
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

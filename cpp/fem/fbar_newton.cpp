@@ -200,6 +200,8 @@ void NonlinearSolver::assemble_three_field_jacobian()
     K = _A_red;
   }
   KSPSetOperators(_inner, K, K);
+  if (_soft)
+    update_penalty_split();
 }
 
 PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
@@ -227,10 +229,19 @@ PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
   // SNES stops with DIVERGED_LINEAR_SOLVE and the stepper cuts the step --
   // never a direction from garbage
   PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-  const PetscErrorCode error = KSPSolve(self->_inner, self->_rhs, self->_sol);
-  PetscPopErrorHandler();
+  PetscErrorCode error;
   PetscInt its = 0;
-  KSPGetIterationNumber(self->_inner, &its);
+  if (self->_soft)
+  {
+    its = self->saddle_solve(); // gmres-schur (penalty_split.cpp)
+    error = self->_linear_error;
+  }
+  else
+  {
+    error = KSPSolve(self->_inner, self->_rhs, self->_sol);
+    KSPGetIterationNumber(self->_inner, &its);
+  }
+  PetscPopErrorHandler();
   self->_inner_iterations += its;
   KSPConvergedReason reason = KSP_DIVERGED_PC_FAILED;
   self->_linear_error = error;

@@ -71,6 +71,13 @@ public:
   void multiply(std::span<const double> du, std::span<const double> d_cells,
                 std::span<double> y_u, std::span<double> y_cells) const;
 
+  /// The stored linearisation and where it acts (the penalty-split preconditioner):
+  /// cell i's displacement dofs are cell_dofs()[i n .. (i + 1) n) (unrolled, owned
+  /// and ghost), fixed() marks the Dirichlet ones.
+  const FbarElement::CellData& linearisation() const { return _data; }
+  std::span<const std::int32_t> cell_dofs() const { return _cell_dofs; }
+  std::span<const std::int8_t> fixed() const { return _fixed; }
+
 private:
   std::vector<double> widened_coefficients(const dolfinx::fem::Form<double>& form) const;
   /// a . du over all the cell's dofs

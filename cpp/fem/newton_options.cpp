@@ -9,7 +9,8 @@ namespace muscle
 
 const std::vector<std::string>& NewtonOptions::linear_solvers()
 {
-  static const std::vector<std::string> names = {"lu", "gmres-hypre", "gmres-gamg"};
+  static const std::vector<std::string> names = {"lu", "gmres-hypre", "gmres-gamg",
+                                                     "gmres-schur"};
   return names;
 }
 

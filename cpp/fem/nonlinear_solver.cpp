@@ -155,7 +155,21 @@ void NonlinearSolver::configure_linear_solver(KSP linear)
     KSPSetType(linear, KSPGMRES);
     KSPSetTolerances(linear, _options.linear_rtol, 1e-14, PETSC_DEFAULT, 2000);
     KSPGMRESSetRestart(linear, 200);
-    if (_options.linear_solver == "gmres-hypre")
+    if (_options.linear_solver == "gmres-schur")
+    {
+      if (!_inner)
+        throw InputError("linear solver gmres-schur: only for F-bar elements with the "
+                         "three-field Newton (element.fbar: true, cell unknowns on)");
+      _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get());
+      create_penalty_split(_problem.mesh()->comm());
+      PCSetType(pc, PCSHELL);
+      PCShellSetContext(pc, this);
+      PCShellSetApply(pc, penalty_split_apply);
+      PCShellSetName(pc, "penalty split: V-cycles on the soft matrix, diagonal Schur");
+      // the residual GMRES tests is the true one (the saddle form's q rows included)
+      KSPSetPCSide(linear, PC_RIGHT);
+    }
+    else if (_options.linear_solver == "gmres-hypre")
     {
       PCSetType(pc, PCHYPRE);
       PCHYPRESetType(pc, "boomeramg");
@@ -178,6 +192,12 @@ NonlinearSolver::~NonlinearSolver()
 {
   SNESDestroy(&_snes);
   KSPDestroy(&_inner);
+  KSPDestroy(&_soft);
+  MatDestroy(&_A_soft);
+  MatDestroy(&_A_soft_red);
+  MatDestroy(&_saddle);
+  for (Vec* v : {&_soft_y, &_soft_r, &_saddle_b, &_saddle_x, &_part_in, &_part_out})
+    VecDestroy(v);
   MatDestroy(&_J_ext);
   for (Vec* v : {&_x_ext, &_rhs, &_sol, &_tmp})
     VecDestroy(v);

@@ -21,8 +21,9 @@ struct NewtonOptions
   double rtol = 1e-9;  ///< relative residual reduction
   double atol = 1e-10; ///< absolute residual norm [mN]
   int max_iterations = 25;
-  /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG) or "gmres-gamg" (with the rigid-body
-  /// near-null space)
+  /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG), "gmres-gamg" (with the rigid-body
+  /// near-null space) or "gmres-schur" (F-bar three-field only: the penalty split
+  /// through the saddle form, penalty_split.cpp; converges at kappa = 10^4)
   std::string linear_solver = "lu";
   /// GAMG's near-null space: "global", six rigid-body modes for the whole mesh,
   /// or "bodies", six per separately meshed body (mesh_bodies).  Global by
@@ -209,6 +210,26 @@ private:
     std::vector<std::span<double>> cells;
   };
   Blocks blocks(double* array) const;
+
+  // penalty_split.cpp: "gmres-schur", the preconditioner of the condensed system
+  void create_penalty_split(MPI_Comm comm);
+  /// The soft matrix, its multigrid and the Schur weights from the Jacobian in _A
+  void update_penalty_split();
+  /// _sol from _rhs by GMRES on the saddle form; returns the Krylov iterations
+  int saddle_solve();
+  static PetscErrorCode saddle_multiply(Mat M, Vec v, Vec y);
+  static PetscErrorCode penalty_split_apply(PC pc, Vec r, Vec z);
+  Mat _saddle = nullptr;   ///< (du, q) -> (A_s du + B^T q, D_r B du - q), shell
+  Vec _saddle_b = nullptr, _saddle_x = nullptr;
+  Vec _part_in = nullptr, _part_out = nullptr; ///< the du part of saddle vectors (no own array)
+  KSP _soft = nullptr;     ///< one V-cycle on the soft matrix
+  Mat _A_soft = nullptr;   ///< K with the cells' stiff penalty share taken out
+  Mat _A_soft_red = nullptr; ///< T^T A_soft T when constrained
+  PetscObjectState _soft_state = -1; ///< _A's nonzero state when _A_soft was made
+  Vec _soft_y = nullptr, _soft_r = nullptr;
+  /// per part and cell: the removed penalty (1 - s_c) K00_c, and sum_j g_j^2 / A_s,jj
+  std::vector<std::vector<double>> _split, _schur_h;
+  PetscReal _split_ratio = 1; ///< kept penalty / rest of the diagonal (-penalty_split_ratio)
 
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh

@@ -130,8 +130,8 @@ Run parse(std::vector<std::string> args)
                  "(fusiform.geo: core, the central block's radius fraction)")->take_all();
   app.add_option("--output-every", output_every, "write fields every N steps")
       ->capture_default_str();
-  app.add_option("--linear-solver", linear_solver, "lu (MUMPS, the default), gmres-hypre or "
-                 "gmres-gamg")
+  app.add_option("--linear-solver", linear_solver, "lu (MUMPS, the default), gmres-hypre, "
+                 "gmres-gamg or gmres-schur (F-bar: the penalty split)")
       ->check(CLI::IsMember(NewtonOptions::linear_solvers()));
   app.add_option("--linear-rtol", linear_rtol,
                  "relative tolerance of the iterative linear solvers (default 1e-10)")

@@ -1,0 +1,328 @@
+// "gmres-schur": the condensed F-bar system solved through its saddle form.  With B's
+// rows the cells' g_c^T and D = diag(K00_c), the condensed tangent is K = A + B^T D B,
+// the stiff penalty being the rank-one cell terms.  Each cell keeps the share s_c of its
+// penalty in a soft matrix A_s = K - B^T D_r B, D_r = diag((1 - s_c) K00_c), the kept
+// share at most `ratio` times the rest of the cell's diagonal, so that multigrid sees a
+// matrix of moderate penalty whatever kappa is.  K du = b is then
+//
+//     [ A_s    B^T ] [du]   [b]
+//     [ D_r B  -I  ] [q ] = [0],     q per cell,
+//
+// which GMRES solves preconditioned by the block factorisation with one V-cycle for
+// each A_s^-1 and the Schur complement I + D_r B A_s^-1 B^T by its diagonal,
+// I + D_r diag_c(sum_j g_cj^2 / A_s,jj).  Dirichlet rows of B^T are zero: K keeps
+// identity rows there.  Krylov on K itself with the same preconditioner (Woodbury) is
+// worse: its error term carries D B A_s^-1 B^T, which grows with kappa.  Measured
+// (BENCHMARKS.md, "Preconditioners against kappa"): the count still grows with kappa
+// (the diagonal misses the Q1-P0 pressure modes), but slower than GAMG's on K, and the
+// preset penalty and 10^4 converge where GAMG fails.  Scaling the q rows by 1/K00 made
+// the count flat on a small block but let GMRES stop with the condensed residual up to
+// kappa times the tolerance (more Newton iterations, failures at 10^4 on the fusiform).
+#include "nonlinear_solver.h"
+
+#include "../common/errors.h"
+#include "constraint.h"
+#include "fbar_unknowns.h"
+
+#include <algorithm>
+#include <dolfinx/la/petsc.h>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+namespace
+{
+/// The diagonal of a full-layout matrix into w (unrolled, ghosts updated).
+void diagonal(Mat A, la::Vector<double>& w)
+{
+  Vec d;
+  MatCreateVecs(A, &d, nullptr);
+  MatGetDiagonal(A, d);
+  const PetscScalar* a;
+  PetscInt n;
+  VecGetLocalSize(d, &n);
+  VecGetArrayRead(d, &a);
+  std::copy(a, a + n, w.mutable_array().begin());
+  VecRestoreArrayRead(d, &a);
+  VecDestroy(&d);
+  w.scatter_fwd();
+}
+
+/// Calls f(part, cell, g, dofs, fixed) for every cell of every part; g and dofs are
+/// the cell's n entries.
+template <typename F>
+void for_each_cell(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts, F f)
+{
+  for (std::size_t part = 0; part < parts.size(); ++part)
+  {
+    const FbarElement::CellData& d = parts[part]->linearisation();
+    std::span<const std::int32_t> dofs = parts[part]->cell_dofs();
+    for (std::size_t i = 0; i < d.K00.size(); ++i)
+      f(part, i, std::span<const double>(d.g.data() + i * d.n, d.n),
+        dofs.subspan(i * d.n, d.n), parts[part]->fixed());
+  }
+}
+/// A saddle vector pair (read, write) with their du parts placed in `du_in`, `du_out`
+/// (vectors without arrays of their own) for the scope.
+struct SaddleParts
+{
+  SaddleParts(Vec in, Vec out, Vec du_in, Vec du_out)
+      : _in(in), _out(out), _du_in(du_in), _du_out(du_out)
+  {
+    VecGetArrayRead(in, &x);
+    VecGetArray(out, &y);
+    VecGetLocalSize(du_in, &nu);
+    VecPlaceArray(du_in, x);
+    VecPlaceArray(du_out, y);
+  }
+  ~SaddleParts()
+  {
+    VecResetArray(_du_in);
+    VecResetArray(_du_out);
+    VecRestoreArray(_out, &y);
+    VecRestoreArrayRead(_in, &x);
+  }
+  SaddleParts(const SaddleParts&) = delete;
+  SaddleParts& operator=(const SaddleParts&) = delete;
+  const PetscScalar* x; ///< the whole input: du part, then q
+  PetscScalar* y;       ///< the whole output
+  PetscInt nu;          ///< entries of the du part
+private:
+  Vec _in, _out, _du_in, _du_out;
+};
+} // namespace
+
+void NonlinearSolver::create_penalty_split(MPI_Comm comm)
+{
+  PetscOptionsGetReal(nullptr, nullptr, "-penalty_split_ratio", &_split_ratio, nullptr);
+  if (!(_split_ratio > 0))
+    throw InputError("-penalty_split_ratio must be > 0");
+  KSPCreate(comm, &_soft);
+  // -soft_pc_gamg_* etc. tune the multigrid of the soft matrix
+  KSPSetOptionsPrefix(_soft, "soft_");
+  KSPSetType(_soft, KSPPREONLY);
+  PC pc;
+  KSPGetPC(_soft, &pc);
+  PCSetType(pc, PCGAMG);
+  KSPSetFromOptions(_soft);
+  VecDuplicate(_rhs, &_soft_y);
+  VecDuplicate(_rhs, &_soft_r);
+
+  PetscInt nu, nq = 0;
+  VecGetLocalSize(_rhs, &nu);
+  _split.resize(_cell_unknowns.size());
+  _schur_h.resize(_cell_unknowns.size());
+  for (std::size_t part = 0; part < _cell_unknowns.size(); ++part)
+  {
+    const std::size_t cells = _cell_unknowns[part]->linearisation().K00.size();
+    _split[part].assign(cells, 0.0);
+    _schur_h[part].assign(cells, 0.0);
+    nq += cells;
+  }
+  VecCreateMPI(comm, nu + nq, PETSC_DETERMINE, &_saddle_b);
+  VecDuplicate(_saddle_b, &_saddle_x);
+  VecCreateMPIWithArray(comm, 1, nu, PETSC_DETERMINE, nullptr, &_part_in);
+  VecCreateMPIWithArray(comm, 1, nu, PETSC_DETERMINE, nullptr, &_part_out);
+  MatCreateShell(comm, nu + nq, nu + nq, PETSC_DETERMINE, PETSC_DETERMINE, this, &_saddle);
+  MatShellSetOperation(_saddle, MATOP_MULT, (void (*)(void))saddle_multiply);
+}
+
+void NonlinearSolver::update_penalty_split()
+{
+  // the penalty's share of K's diagonal, sum_c K00_c g_cj^2, and the rest of it
+  std::span<double> penalty = _work2.mutable_array();
+  std::fill(penalty.begin(), penalty.end(), 0.0);
+  for_each_cell(_cell_unknowns, [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  {
+    const double K00 = _cell_unknowns[part]->linearisation().K00[i];
+    for (std::size_t j = 0; j < g.size(); ++j)
+      if (!fixed[dofs[j]])
+        penalty[dofs[j]] += K00 * g[j] * g[j];
+  });
+  _work2.scatter_rev(std::plus<double>());
+  _work2.scatter_fwd();
+  diagonal(_A, _work);
+
+  PetscObjectState state;
+  MatGetNonzeroState(_A, &state);
+  if (_A_soft and state != _soft_state)
+    MatDestroy(&_A_soft); // _A gained nonzeros
+  if (!_A_soft)
+  {
+    MatDuplicate(_A, MAT_COPY_VALUES, &_A_soft);
+    ISLocalToGlobalMapping rows, cols;
+    MatGetLocalToGlobalMapping(_A, &rows, &cols);
+    MatSetLocalToGlobalMapping(_A_soft, rows, cols);
+    _soft_state = state;
+    if (_A_soft_red)
+      MatDestroy(&_A_soft_red);
+  }
+  else
+    MatCopy(_A, _A_soft, SAME_NONZERO_PATTERN);
+
+  std::vector<PetscInt> index;
+  std::vector<double> block;
+  for_each_cell(_cell_unknowns, [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  {
+    const double K00 = _cell_unknowns[part]->linearisation().K00[i];
+    const std::size_t n = g.size();
+    double own = 0, rest = 0;
+    for (std::size_t j = 0; j < n; ++j)
+      if (!fixed[dofs[j]])
+      {
+        own += K00 * g[j] * g[j];
+        rest += _work.array()[dofs[j]] - penalty[dofs[j]];
+      }
+    double& removed = _split[part][i];
+    removed = 0;
+    if (!(K00 > 0 and own > 0 and rest > 0))
+      return; // nothing stiff to take out, or no soft part to measure it by
+    removed = (1 - std::min(1.0, _split_ratio * rest / own)) * K00;
+    if (removed == 0)
+      return;
+    index.assign(dofs.begin(), dofs.end());
+    block.resize(n * n);
+    for (std::size_t j = 0; j < n; ++j)
+    {
+      // Dirichlet rows stay identity rows: their entries get zeros
+      const double row = fixed[dofs[j]] ? 0.0 : -removed * g[j];
+      for (std::size_t k = 0; k < n; ++k)
+        block[j * n + k] = row * g[k];
+    }
+    MatSetValuesLocal(_A_soft, n, index.data(), n, index.data(), block.data(), ADD_VALUES);
+  });
+  MatAssemblyBegin(_A_soft, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_A_soft, MAT_FINAL_ASSEMBLY);
+
+  Mat M = _A_soft;
+  if (_constraint)
+  {
+    const bool first = !_A_soft_red;
+    MatPtAP(_A_soft, _constraint->T(), first ? MAT_INITIAL_MATRIX : MAT_REUSE_MATRIX,
+            PETSC_DEFAULT, &_A_soft_red);
+    if (first)
+      MatSetNearNullSpace(_A_soft_red, _near_null_space);
+    M = _A_soft_red;
+  }
+  else
+    MatSetNearNullSpace(_A_soft, _near_null_space);
+  KSPSetOperators(_soft, M, M);
+  KSPSetOperators(_inner, _saddle, _saddle);
+
+  // diag_c(B A_s^-1 B^T) by the diagonal of A_s (full layout, also when constrained)
+  diagonal(_A_soft, _work);
+  for_each_cell(_cell_unknowns, [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  {
+    double h = 0;
+    for (std::size_t j = 0; j < g.size(); ++j)
+      if (!fixed[dofs[j]])
+        h += g[j] * g[j] / _work.array()[dofs[j]];
+    _schur_h[part][i] = h;
+  });
+}
+
+int NonlinearSolver::saddle_solve()
+{
+  // (b, 0) -> (du, q)
+  PetscScalar* s;
+  VecGetArray(_saddle_b, &s);
+  const PetscScalar* b;
+  PetscInt nu, n;
+  VecGetLocalSize(_rhs, &nu);
+  VecGetLocalSize(_saddle_b, &n);
+  VecGetArrayRead(_rhs, &b);
+  std::copy(b, b + nu, s);
+  std::fill(s + nu, s + n, 0.0);
+  VecRestoreArrayRead(_rhs, &b);
+  VecRestoreArray(_saddle_b, &s);
+  VecSet(_saddle_x, 0.0);
+  _linear_error = KSPSolve(_inner, _saddle_b, _saddle_x);
+  PetscInt its = 0;
+  KSPGetIterationNumber(_inner, &its);
+  const PetscScalar* x;
+  VecGetArrayRead(_saddle_x, &x);
+  PetscScalar* du;
+  VecGetArray(_sol, &du);
+  std::copy(x, x + nu, du);
+  VecRestoreArray(_sol, &du);
+  VecRestoreArrayRead(_saddle_x, &x);
+  return its;
+}
+
+PetscErrorCode NonlinearSolver::saddle_multiply(Mat M, Vec v, Vec y)
+{
+  NonlinearSolver* self;
+  MatShellGetContext(M, &self);
+  SaddleParts parts(v, y, self->_part_in, self->_part_out);
+  const PetscScalar* vv = parts.x;
+  PetscScalar* yy = parts.y;
+  // y_u = A_s u + B^T q,  y_q = D_r B u - q
+  MatMult(self->_constraint ? self->_A_soft_red : self->_A_soft, self->_part_in, self->_part_out);
+  self->to_full(self->_part_in);
+  std::span<const double> u = self->_work.array();
+  std::span<double> w = self->_work2.mutable_array();
+  std::fill(w.begin(), w.end(), 0.0);
+  PetscInt k = parts.nu;
+  for_each_cell(self->_cell_unknowns,
+                [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  {
+    double Bu = 0;
+    for (std::size_t j = 0; j < g.size(); ++j)
+    {
+      Bu += g[j] * u[dofs[j]];
+      if (!fixed[dofs[j]])
+        w[dofs[j]] += g[j] * vv[k];
+    }
+    yy[k] = self->_split[part][i] * Bu - vv[k];
+    ++k;
+  });
+  self->_work2.scatter_rev(std::plus<double>());
+  self->add_restricted(self->_work2, self->_part_out);
+  return 0;
+}
+
+PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
+{
+  NonlinearSolver* self;
+  PCShellGetContext(pc, &self);
+  auto soft_solve = [&](Vec b, Vec x)
+  {
+    KSPSolve(self->_soft, b, x);
+    KSPConvergedReason reason;
+    KSPGetConvergedReason(self->_soft, &reason);
+    if (reason < 0)
+      PCSetFailedReason(pc, PC_SUBPC_ERROR);
+  };
+  SaddleParts parts(r, z, self->_part_in, self->_part_out);
+  const PetscScalar* rr = parts.x;
+  PetscScalar* zz = parts.y;
+  // x1 = A_s^-1 r_u;  q = (D_r B x1 - r_q) / (1 + D_r h);  z_u = A_s^-1 (r_u - B^T q)
+  soft_solve(self->_part_in, self->_soft_y);
+  self->to_full(self->_soft_y);
+  std::span<const double> x1 = self->_work.array();
+  std::span<double> w = self->_work2.mutable_array();
+  std::fill(w.begin(), w.end(), 0.0);
+  PetscInt k = parts.nu;
+  for_each_cell(self->_cell_unknowns,
+                [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  {
+    const double d = self->_split[part][i];
+    double Bx = 0;
+    for (std::size_t j = 0; j < g.size(); ++j)
+      Bx += g[j] * x1[dofs[j]];
+    const double q = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
+    zz[k] = q;
+    for (std::size_t j = 0; j < g.size(); ++j)
+      if (!fixed[dofs[j]])
+        w[dofs[j]] -= g[j] * q;
+    ++k;
+  });
+  self->_work2.scatter_rev(std::plus<double>());
+  VecCopy(self->_part_in, self->_soft_r);
+  self->add_restricted(self->_work2, self->_soft_r);
+  soft_solve(self->_soft_r, self->_part_out);
+  return 0;
+}
+
+} // namespace muscle
