@@ -64,6 +64,9 @@ struct NewtonReport
   /// DIVERGED_LINEAR_SOLVE: how the linear solver failed (describe_linear_failure)
   std::string linear_failure;
   std::vector<double> residual_norms; ///< one per Newton iteration, first = initial
+  /// the line search's step length lambda of each Newton step (1: the full
+  /// Newton step); empty without a line search (trust region)
+  std::vector<double> step_lengths;
   KernelStatus kernel;                ///< activation kernel at the last evaluation
   bool non_finite = false;            ///< a residual evaluation produced NaN/inf
 };
@@ -127,6 +130,10 @@ public:
   Mat assemble_tangent();
 
   const NewtonOptions& options() const { return _options; }
+
+  /// The line search SNES uses (options().line_search unless a PETSc option
+  /// changed it; "" without one, e.g. -snes_type newtontr).
+  std::string line_search() const;
 
   /// The KSP of the displacement system (with F-bar cell unknowns: of the
   /// condensed system), e.g. to change its tolerances between solves.
@@ -226,6 +233,7 @@ private:
   bool _non_finite = false;
   bool _stagnated = false;
   std::vector<double> _norms; ///< residual norms of the current solve
+  std::vector<double> _step_lengths; ///< line-search lambdas of the current solve
 
   std::vector<std::unique_ptr<FbarCellUnknowns>> _cell_unknowns;
   Vec _x_ext = nullptr;     ///< three-field: SNES iterate (u part, then every part's cells)
