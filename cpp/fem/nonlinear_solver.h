@@ -33,12 +33,15 @@ struct NewtonOptions
   bool fbar_cell_unknowns = true;
   /// Largest constraint violation |J0(u) - theta| accepted at convergence.
   double fbar_constraint_tolerance = 1e-10;
-  /// PETSc line search: "cp" minimises along the direction with the residual
-  /// as the energy's gradient; chosen by measurement (BENCHMARKS.md, "Line
-  /// searches": the fewest Newton iterations over the fusiform runs and the
-  /// block scenes; "bt", residual-norm backtracking, 1.66x more, the residual
-  /// norm being a poor merit function under the stiff penalty).
-  std::string line_search = "cp";
+  /// PETSc line search, chosen by measurement (BENCHMARKS.md, "Line searches":
+  /// of the methods that finish every case, the fewest Newton iterations in
+  /// all): "basic", the full Newton step.  Every merit function fails somewhere
+  /// under the stiff penalty: a bending or turning nearly incompressible body
+  /// (the cantilever, the humerus) raises residual norm and energy along the
+  /// straight Newton line, so "cp" creeps there (4x the iterations) and "bt"
+  /// stalls, where full steps converge.  "cp" stays best on the fusiform runs
+  /// and blocks ("basic" needs 1.16x its iterations there).
+  std::string line_search = "basic";
   /// Give up early when the residual norm fell by less than
   /// `stagnation_reduction` (relative) over the last `stagnation_window`
   /// iterations: a line search creeping with tiny steps (seen with cp on
