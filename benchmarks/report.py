@@ -238,19 +238,34 @@ def make_helpers(res):
                    if r["method"] == method and r.get("completed"))
 
     def line_search(case, method):
-        """Newton iterations of one case ("fusiform wkm free", "block_graded")."""
+        """Newton iterations of one case ("fusiform wkm free", "block_graded"); None if
+        the run did not finish."""
         for r in raw["line_search_runs"]:
             name = r.get("scene") or f"fusiform {r['model']} {r['case']}"
             if name == case and r["method"] == method:
-                return r["newton_iterations"]
+                return r["newton_iterations"] if r.get("completed") else None
         raise KeyError(f"no line-search run {case} / {method}")
+
+    def line_search_failed(method):
+        """The cases a method did not finish (runs skipped at a deadline are not cases)."""
+        return sorted(r.get("scene") or f"fusiform {r['model']} {r['case']}"
+                      for r in raw["line_search_runs"]
+                      if r["method"] == method and not r.get("completed")
+                      and not r.get("skipped"))
+
+    def line_search_default():
+        """The rule: of the methods that finish every case, the fewest Newton iterations
+        in all."""
+        finishing = [m for m in LINE_SEARCHES if not line_search_failed(m)]
+        return min(finishing, key=line_search_total)
 
     def line_search_outliers(factor):
         """Cases where cp needs more than factor x the fewest Newton iterations."""
         cases = sorted({r.get("scene") or f"fusiform {r['model']} {r['case']}"
                         for r in raw["line_search_runs"]})
-        return [c for c in cases if line_search(c, "cp")
-                > factor * min(line_search(c, m) for m in LINE_SEARCHES)]
+        best = {c: min(n for n in (line_search(c, m) for m in LINE_SEARCHES) if n)
+                for c in cases}
+        return [c for c in cases if (line_search(c, "cp") or math.inf) > factor * best[c]]
 
     def quad(element, case, degree):
         return res.run(quadrature_runs(element, case)[degree])
@@ -264,6 +279,7 @@ def make_helpers(res):
             "kernel_per_point": kernel_per_point, "loads": loads, "quad": quad, "knob": knob,
             "line_search": line_search, "line_search_total": line_search_total,
             "line_search_outliers": line_search_outliers,
+            "line_search_failed": line_search_failed, "line_search_default": line_search_default,
             "shoulder_fit": lambda solver, exponent=None: shoulder_fit(raw, solver, exponent),
             "shoulder": lambda size, solver="lu", ranks=1: shoulder_run(raw, size, solver,
                                                                        ranks),
@@ -798,11 +814,17 @@ def line_search_table(res):
     """Newton iterations (cutbacks) per case and method; a failed run shows its exit."""
     cases, cells = [], {}
     for r in res.raw["line_search_runs"]:
+        if r.get("skipped"):
+            continue
         case = r.get("scene") or f"fusiform {r['model']} {r['case']}"
+        if r.get("t_end") is not None:
+            case += f" (to {r['t_end']:g} s)"
         if case not in cases:
             cases.append(case)
         if r.get("completed"):
             text = f"{r['newton_iterations']} ({r['cutbacks']})"
+        elif r.get("returncode") == "timeout":
+            text = f"stopped after {r['elapsed']:.0f} s"
         else:
             text = f"fails (exit {r.get('returncode')})"
         cells[(case, r["method"])] = (text, r)

@@ -4,10 +4,12 @@
 //  length x width x height (mm) from the origin: x along the beam, y across,
 //  z the height (the direction it bends under gravity along -z).  Structured
 //  hexahedra of about `size` mm (at least one across the section), times the
-//  refinement.  For the cantilever of demos/scenes/beam_vibration.yaml.
+//  refinement.  For the cantilevers of demos/scenes/beam_vibration.yaml and
+//  demos/scenes/cantilever_pressure.yaml.
 //
 //  Physical groups
-//    Surface "root" (x = 0), "tip" (x = length), "sides"; Volume "beam".
+//    Surface "root" (x = 0), "tip" (x = length), "bottom" (z = 0), "top"
+//    (z = height), "sides" (y = 0 and y = width); Volume "beam".
 //  Parameters: length (100), width (5), height (5), size (2.5), refinement (1).
 // -----------------------------------------------------------------------------
 SetFactory("Built-in");
@@ -38,10 +40,13 @@ Transfinite Curve{2, 4} = nz + 1;
 Transfinite Surface{1};
 Recombine Surface{1};
 
-// out[0]: the tip (x = length), out[1]: the beam, out[2..5]: the sides
+// out[0]: the tip (x = length), out[1]: the beam, out[2..5]: the faces swept by
+// lines 1..4 (z = 0, y = width, z = height, y = 0)
 out[] = Extrude {length, 0, 0} { Surface{1}; Layers{nx}; Recombine; };
 
 Physical Surface("root", 1) = {1};
 Physical Surface("tip", 2) = {out[0]};
-Physical Surface("sides", 3) = {out[2], out[3], out[4], out[5]};
+Physical Surface("sides", 3) = {out[3], out[5]};
+Physical Surface("bottom", 4) = {out[2]};
+Physical Surface("top", 5) = {out[4]};
 Physical Volume("beam", 10) = {out[1]};

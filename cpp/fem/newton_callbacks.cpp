@@ -175,8 +175,23 @@ PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
       and !(self->_constraint_violation <= self->_options.fbar_constraint_tolerance))
     *reason = SNES_CONVERGED_ITERATING;
   if (it == 0)
+  {
     self->_norms.clear();
+    self->_step_lengths.clear();
+  }
   self->_norms.push_back(fnorm);
+  // the step the line search took (stop messages judge the line search by it);
+  // a trust region has none
+  PetscBool line_search;
+  PetscObjectTypeCompare(reinterpret_cast<PetscObject>(snes), SNESNEWTONLS, &line_search);
+  if (it > 0 and line_search)
+  {
+    SNESLineSearch ls;
+    SNESGetLineSearch(snes, &ls);
+    PetscReal lambda;
+    SNESLineSearchGetLambda(ls, &lambda);
+    self->_step_lengths.push_back(lambda);
+  }
   const int window = self->_options.stagnation_window;
   if (*reason == SNES_CONVERGED_ITERATING and window > 0 and it >= window
       and fnorm > (1 - self->_options.stagnation_reduction) * self->_norms[it - window])

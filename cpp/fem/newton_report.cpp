@@ -46,6 +46,7 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
   PetscInt n;
   SNESGetConvergenceHistory(_snes, &history, nullptr, &n);
   report.residual_norms.assign(history, history + n);
+  report.step_lengths = _step_lengths;
   report.kernel = _last_kernel;
   report.non_finite = _non_finite;
   return report;

@@ -229,6 +229,19 @@ Mat NonlinearSolver::assemble_tangent()
   return _A;
 }
 
+std::string NonlinearSolver::line_search() const
+{
+  PetscBool has;
+  PetscObjectTypeCompare(reinterpret_cast<PetscObject>(_snes), SNESNEWTONLS, &has);
+  if (!has)
+    return "";
+  SNESLineSearch ls;
+  SNESGetLineSearch(_snes, &ls);
+  SNESLineSearchType type;
+  SNESLineSearchGetType(ls, &type);
+  return type ? type : "";
+}
+
 KSP NonlinearSolver::linear_solver() const
 {
   if (_inner)
@@ -314,6 +327,7 @@ NewtonReport NonlinearSolver::solve()
 {
   _non_finite = false;
   _stagnated = false;
+  _step_lengths.clear();
   if (_constraint)
     _constraint->restrict_to(*_problem.u()->x(), _x);
   else

@@ -43,12 +43,15 @@ struct NewtonOptions
   bool fbar_cell_unknowns = true;
   /// Largest constraint violation |J0(u) - theta| accepted at convergence.
   double fbar_constraint_tolerance = 1e-10;
-  /// PETSc line search: "cp" minimises along the direction with the residual
-  /// as the energy's gradient; chosen by measurement (BENCHMARKS.md, "Line
-  /// searches": the fewest Newton iterations over the fusiform runs and the
-  /// block scenes; "bt", residual-norm backtracking, 1.66x more, the residual
-  /// norm being a poor merit function under the stiff penalty).
-  std::string line_search = "cp";
+  /// PETSc line search, chosen by measurement (BENCHMARKS.md, "Line searches":
+  /// of the methods that finish every case, the fewest Newton iterations in
+  /// all): "basic", the full Newton step.  Every merit function fails somewhere
+  /// under the stiff penalty: a bending or turning nearly incompressible body
+  /// (the cantilever, the humerus) raises residual norm and energy along the
+  /// straight Newton line, so "cp" creeps there (4x the iterations) and "bt"
+  /// stalls, where full steps converge.  "cp" stays best on the fusiform runs
+  /// and blocks ("basic" needs 1.16x its iterations there).
+  std::string line_search = "basic";
   /// Give up early when the residual norm fell by less than
   /// `stagnation_reduction` (relative) over the last `stagnation_window`
   /// iterations: a line search creeping with tiny steps (seen with cp on
@@ -75,6 +78,9 @@ struct NewtonReport
   /// DIVERGED_LINEAR_SOLVE: how the linear solver failed (describe_linear_failure)
   std::string linear_failure;
   std::vector<double> residual_norms; ///< one per Newton iteration, first = initial
+  /// the line search's step length lambda of each Newton step (1: the full
+  /// Newton step); empty without a line search (trust region)
+  std::vector<double> step_lengths;
   KernelStatus kernel;                ///< activation kernel at the last evaluation
   bool non_finite = false;            ///< a residual evaluation produced NaN/inf
 };
@@ -138,6 +144,10 @@ public:
   Mat assemble_tangent();
 
   const NewtonOptions& options() const { return _options; }
+
+  /// The line search SNES uses (options().line_search unless a PETSc option
+  /// changed it; "" without one, e.g. -snes_type newtontr).
+  std::string line_search() const;
 
   /// The KSP of the displacement system (with F-bar cell unknowns: of the
   /// condensed system), e.g. to change its tolerances between solves.
@@ -258,6 +268,7 @@ private:
   bool _non_finite = false;
   bool _stagnated = false;
   std::vector<double> _norms; ///< residual norms of the current solve
+  std::vector<double> _step_lengths; ///< line-search lambdas of the current solve
 
   std::vector<std::unique_ptr<FbarCellUnknowns>> _cell_unknowns;
   Vec _x_ext = nullptr;     ///< three-field: SNES iterate (u part, then every part's cells)

@@ -1,5 +1,6 @@
 #include "time_stepping.h"
 #include "generalized_alpha.h"
+#include "line_search_failure.h"
 #include "linear_failure.h"
 
 #include <cmath>
@@ -35,7 +36,8 @@ std::string midpoint_text(const mesh::Mesh& mesh, std::int32_t cell)
 nlohmann::json StepFailure::to_json() const
 {
   return {{"t_converged", t_converged}, {"t_attempted", t_attempted}, {"reason", reason},
-          {"where", where}, {"newton_iterations", newton_iterations}, {"cutbacks", cutbacks}};
+          {"where", where}, {"newton_iterations", newton_iterations}, {"cutbacks", cutbacks},
+          {"step_lengths", step_lengths}};
 }
 
 StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted, int step,
@@ -46,6 +48,7 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
   f.t_attempted = t_attempted;
   f.step = step;
   f.reason = report.reason;
+  f.step_lengths = report.step_lengths;
   if (report.non_finite)
     f.reason += ", non-finite residual";
   const auto mesh = _problem.mesh();
@@ -74,14 +77,15 @@ StepFailure QuasiStaticStepper::diagnose(double t_converged, double t_attempted,
   if (total > 0)
     f.where += "; activation kernel without admissible root at " + std::to_string(total)
                + " quadrature points";
+  const std::string method = _solver.line_search();
+  const std::string culprit = line_search_failure(report, method);
   if (f.reason.find("DIVERGED_LINEAR_SOLVE") != std::string::npos)
     // a smaller step rarely rescues an iterative solver that stalls (BENCHMARKS.md)
     f.advice = linear_failure_advice(report.linear_failure);
-  else if (f.reason.find("DIVERGED_LINE_SEARCH") != std::string::npos)
-    f.advice = "the line search (" + _solver.options().line_search
-               + ") found no step that lowers the residual: another line search (scene "
-                 "solver.line_search, --line-search: cp, bt, basic, l2; BENCHMARKS.md, "
-                 "\"Line searches\"), then a smaller time step";
+  else if (!culprit.empty()
+           and (global.value > 0 or report.reason.find("DIVERGED_LINE_SEARCH") == 0))
+    // inverted elements speak for a smaller step, unless no step was found at all
+    f.advice = culprit + ": " + line_search_advice(method);
   else if (report.non_finite and global.value > 0
            and (report.residual_norms.empty() or !std::isfinite(report.residual_norms[0])))
     // not finite already at the last converged state with the new time's loads

@@ -58,6 +58,8 @@ struct StepFailure
   std::string advice;      ///< what to try
   int newton_iterations = 0; ///< spent on the failed output step, all attempts
   int cutbacks = 0;          ///< attempts that failed on it
+  /// the line search's step length of each Newton step of the last attempt
+  std::vector<double> step_lengths;
 
   /// The fields above for a run's summary.json.
   nlohmann::json to_json() const;

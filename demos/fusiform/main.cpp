@@ -137,8 +137,8 @@ Run parse(std::vector<std::string> args)
                  "relative tolerance of the iterative linear solvers (default 1e-10)")
       ->type_name("R");
   app.add_option("--line-search", line_search,
-                 "PETSc line search: cp (default, BENCHMARKS.md \"Line searches\"), bt, "
-                 "basic or l2")
+                 "PETSc line search: basic (default: full Newton steps, BENCHMARKS.md \"Line "
+                 "searches\"), cp, bt or l2")
       ->check(CLI::IsMember(NewtonOptions::line_searches()));
   app.add_option("--max-cutbacks", max_cutbacks, "halvings of a failing step (default 8)")
       ->type_name("N");

@@ -96,7 +96,8 @@ def worst_difference(a, b, floor):
 HORIZONS = {"block_muscle_tendon": 0.03, "fusiform_isometric": 0.02, "fusiform_free": 0.02,
             "fusiform_passive_stretch": 0.03, "block_graded": 0.03, "block_wave": 0.03,
             "block_cell_data": 0.005, "hertz": 0.5, "humerus_deltoid": 0.05,
-            "beam_vibration": 0.004, "shoulder": 0.001, "stiff_soft": 0.01}
+            "beam_vibration": 0.004, "shoulder": 0.001, "stiff_soft": 0.01,
+            "cantilever_pressure": 0.1}
 DEMOS = sorted(HORIZONS)
 Demo = collections.namedtuple("Demo", "code stderr summary rows out")
 
