@@ -160,7 +160,8 @@ void NonlinearSolver::configure_linear_solver(KSP linear)
       if (!_inner)
         throw InputError("linear solver gmres-schur: only for F-bar elements with the "
                          "three-field Newton (element.fbar: true, cell unknowns on)");
-      _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get());
+      _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get(),
+                                          _options.near_null_space == "bodies");
       create_penalty_split(_problem.mesh()->comm());
       PCSetType(pc, PCSHELL);
       PCShellSetContext(pc, this);
