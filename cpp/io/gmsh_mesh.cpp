@@ -110,7 +110,8 @@ void refuse_impossible_mesh(const std::string& path)
 
 RawMesh read_on_root(const std::string& path, const std::map<std::string, double>& numbers)
 {
-  if (!std::filesystem::exists(path))
+  std::error_code error;
+  if (!std::filesystem::exists(path, error))
     throw InputError("mesh file '" + path + "' does not exist");
   std::vector<std::string> args = {"muscle"};
   for (const auto& [name, value] : numbers)

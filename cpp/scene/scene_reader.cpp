@@ -385,7 +385,8 @@ std::string resolve(const std::string& directory, const std::string& path)
 std::string existing_file(const Entry& e, const std::string& directory)
 {
   const std::string path = resolve(directory, e.text());
-  if (!std::filesystem::is_regular_file(path))
+  std::error_code error; // a name the system refuses (too long, ...) is not found either
+  if (!std::filesystem::is_regular_file(path, error))
     e.fail("file '" + e.text() + "' not found (looked for " + path + ")");
   return path;
 }
@@ -1095,7 +1096,8 @@ Scene parse_scene(const std::string& text, const std::string& name,
 Scene read_scene(const std::string& path, const std::vector<std::string>& overrides)
 {
   std::ifstream in(path);
-  if (!std::filesystem::is_regular_file(path) or !in)
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error) or !in)
     throw InputError(path + ": scene file not found");
   std::stringstream text;
   text << in.rdbuf();
