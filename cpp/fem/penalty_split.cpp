@@ -63,6 +63,25 @@ void for_each_cell(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts, 
         dofs.subspan(i * d.n, d.n), parts[part]->fixed());
   }
 }
+
+/// B and B^T over the cells at once: for each cell (in saddle order k from `k`)
+/// s = f(part, cell, k, (B u)_cell), then w += s g on the cell's free dofs.
+template <typename F>
+void apply_B_and_BT(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts,
+                    std::span<const double> u, std::span<double> w, PetscInt k, F f)
+{
+  for_each_cell(parts, [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  {
+    double Bu = 0;
+    for (std::size_t j = 0; j < g.size(); ++j)
+      Bu += g[j] * u[dofs[j]];
+    const double scale = f(part, i, k++, Bu);
+    for (std::size_t j = 0; j < g.size(); ++j)
+      if (!fixed[dofs[j]])
+        w[dofs[j]] += g[j] * scale;
+  });
+}
+
 /// A saddle vector pair (read, write) with their du parts placed in `du_in`, `du_out`
 /// (vectors without arrays of their own) for the scope.
 struct SaddleParts
@@ -263,19 +282,11 @@ PetscErrorCode NonlinearSolver::saddle_multiply(Mat M, Vec v, Vec y)
   std::span<const double> u = self->_work.array();
   std::span<double> w = self->_work2.mutable_array();
   std::fill(w.begin(), w.end(), 0.0);
-  PetscInt k = parts.nu;
-  for_each_cell(self->_cell_unknowns,
-                [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  apply_B_and_BT(self->_cell_unknowns, u, w, parts.nu,
+                 [&](std::size_t part, std::size_t i, PetscInt k, double Bu)
   {
-    double Bu = 0;
-    for (std::size_t j = 0; j < g.size(); ++j)
-    {
-      Bu += g[j] * u[dofs[j]];
-      if (!fixed[dofs[j]])
-        w[dofs[j]] += g[j] * vv[k];
-    }
     yy[k] = self->_split[part][i] * Bu - vv[k];
-    ++k;
+    return vv[k];
   });
   self->_work2.scatter_rev(std::plus<double>());
   self->add_restricted(self->_work2, self->_part_out);
@@ -303,20 +314,12 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   std::span<const double> x1 = self->_work.array();
   std::span<double> w = self->_work2.mutable_array();
   std::fill(w.begin(), w.end(), 0.0);
-  PetscInt k = parts.nu;
-  for_each_cell(self->_cell_unknowns,
-                [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  apply_B_and_BT(self->_cell_unknowns, x1, w, parts.nu,
+                 [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
   {
     const double d = self->_split[part][i];
-    double Bx = 0;
-    for (std::size_t j = 0; j < g.size(); ++j)
-      Bx += g[j] * x1[dofs[j]];
-    const double q = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
-    zz[k] = q;
-    for (std::size_t j = 0; j < g.size(); ++j)
-      if (!fixed[dofs[j]])
-        w[dofs[j]] -= g[j] * q;
-    ++k;
+    zz[k] = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
+    return -zz[k];
   });
   self->_work2.scatter_rev(std::plus<double>());
   VecCopy(self->_part_in, self->_soft_r);
