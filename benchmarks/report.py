@@ -288,6 +288,8 @@ def make_helpers(res):
             "richardson": lambda *runs, key: richardson(*(r[key] for r in runs)),
             "stiff_soft": lambda config, contrast=None, study="stiff_soft": stiff_soft_run(
                 raw, config, contrast, study),
+            "cantilever": lambda element, refinement: cantilever_run(raw, element, refinement),
+            "cantilever_reference": lambda: cantilever_reference(raw),
             "min": min, "max": max, "abs": abs, "round": round, "log2": math.log2}
 
 
@@ -1128,3 +1130,58 @@ def main():
 
 if __name__ == "__main__":
     main()
+
+
+# ---------------------------------------------------------------------------
+# Taylor-Hood on the cantilever (results.json: taylor_hood_runs, phase taylor-hood)
+# ---------------------------------------------------------------------------
+TAYLOR_HOOD_ELEMENTS = {"Q2": "Q2", "Q2TH": "Taylor-Hood, MUMPS",
+                        "Q2TH-schur": "Taylor-Hood, GMRES + field split"}
+
+
+def cantilever_run(raw, element, refinement):
+    """A run of phase taylor-hood, with krylov_per_newton."""
+    r = next((r for r in raw.get("taylor_hood_runs", [])
+              if r["element"] == element and r["refinement"] == refinement), None)
+    out = Obj(r or {"completed": False})
+    if out.get("completed") and out.get("newton_iterations"):
+        out["krylov_per_newton"] = (out.get("linear_iterations") or 0) / out["newton_iterations"]
+    return out
+
+
+def cantilever_reference(raw):
+    """The finest completed Taylor-Hood (MUMPS) tip and the change from the one before
+    it (its error estimate)."""
+    done = sorted((r for r in raw.get("taylor_hood_runs", [])
+                   if r["element"] == "Q2TH" and r.get("completed") and r.get("tip_z")),
+                  key=lambda r: r["refinement"])
+    if not done:
+        return Obj({"tip": None, "refinement": None, "change": None})
+    fine = done[-1]
+    change = (abs(fine["tip_z"] / done[-2]["tip_z"] - 1) if len(done) > 1 else None)
+    return Obj({"tip": fine["tip_z"], "refinement": fine["refinement"], "change": change})
+
+
+@table
+def taylor_hood_table(res):
+    """Tip deflection, its error against the finest Taylor-Hood mesh, and the cost, per
+    element and refinement (cells 20r x 2r x 2r)."""
+    raw = res.raw
+    ref = cantilever_reference(raw)
+    rows = []
+    for element, label in TAYLOR_HOOD_ELEMENTS.items():
+        for refinement in sorted({r["refinement"] for r in raw.get("taylor_hood_runs", [])
+                                  if r["element"] == element}):
+            r = cantilever_run(raw, element, refinement)
+            cells = f"{20 * refinement} x {2 * refinement} x {2 * refinement}"
+            if not r.get("completed") or r.get("tip_z") is None:
+                rows.append([label, cells, fmt(r.get("unknowns"), ","), f"exit {r.get('returncode')}",
+                             "-", "-", "-", "-", "-", f"{r['loadavg_before'][0]:.1f}"])
+                continue
+            krylov = (f"{r['krylov_per_newton']:.0f}" if r.get("linear_iterations") else "-")
+            rows.append([label, cells, f"{r['unknowns']:,}", f"{r['tip_z']:.4f}",
+                         f"{r['tip_z'] / ref.tip - 1:+.2%}", f"{r['wall_time']:.1f}",
+                         str(r["newton_iterations"]), krylov,
+                         fmt(r.get("peak_rss_MiB"), ".0f"), f"{r['loadavg_before'][0]:.1f}"])
+    return md_table(["element", "cells", "unknowns", "tip z [mm]", "vs finest Taylor-Hood",
+                     "wall [s]", "Newton its", "Krylov / Newton", "peak RSS [MiB]", "load"], rows)

@@ -54,6 +54,7 @@ import time
 
 import report
 import stiffsoft
+import taylor_hood
 from report import LINE_SEARCHES
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -126,8 +127,9 @@ class Records:
 
 
 def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc=(),
-             fbar=False, rtol=None, study=None):
-    name = f"{model}_{case}_{cell}{degree}{'fbar' if fbar else ''}_n{n}_dt{dt:g}_{solver}_np{np}"
+             fbar=False, rtol=None, study=None, taylor_hood=False):
+    kind = "fbar" if fbar else "th" if taylor_hood else ""
+    name = f"{model}_{case}_{cell}{degree}{kind}_n{n}_dt{dt:g}_{solver}_np{np}"
     if study:  # a study's own runs, apart from the same settings in other phases
         name = f"{study}_{name}"
     if rtol is not None:
@@ -141,10 +143,13 @@ def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc
 
 def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, dt=0.05,
              solver="lu", np=1, sets=(), petsc=(), timeout=None, group=None, fbar=False,
-             rtol=None, study=None):
+             rtol=None, study=None, taylor_hood=False):
     """One fusiform run (cached with --reuse); returns a flat record.  fbar: the F-bar
-    hexahedron (three-field Newton); rtol: --linear-rtol of the iterative solvers."""
-    name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc, fbar, rtol, study)
+    hexahedron (three-field Newton); taylor_hood: the mixed element (degree 2); rtol:
+    --linear-rtol of the iterative solvers."""
+    name = run_name(model, case, cell, degree, n, dt, solver, np, sets, petsc, fbar, rtol, study,
+                    taylor_hood)
+    element = element_name(cell, degree, fbar, taylor_hood)
     out = os.path.join(args.work, "runs", name)
     summary_path = os.path.join(out, "summary.json")
     record_path = os.path.join(out, "record.json")
@@ -159,7 +164,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
         time.sleep(5)
     if args.reuse and not os.path.exists(record_path) and os.path.exists(summary_path):
         adopted = adopt(name, out, dict(model=model, case=case, cell=cell, degree=degree,
-                                        element=element_name(cell, degree, fbar), fbar=fbar,
+                                        element=element, fbar=fbar,
                                         n=n, dt=dt, solver=solver, ranks=np, sets=list(sets),
                                         petsc=list(petsc), group=group))
         if adopted:
@@ -172,7 +177,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
             return {"name": name, "skipped": "deadline", "completed": False, "model": model,
                     "case": case, "cell": cell, "degree": degree, "n": n, "dt": dt,
                     "solver": solver, "ranks": np, "sets": list(sets), "fbar": fbar,
-                    "element": element_name(cell, degree, fbar)}
+                    "element": element}
         timeout = min(timeout or left, left)
     command = [os.path.join(args.build, "fusiform"), "--model", model, "--case", case,
                "--refinement", str(n), "--cell", cell, "--degree", str(degree),
@@ -180,6 +185,8 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
                "--out", out]
     if fbar:
         command.append("--fbar")
+    elif taylor_hood:
+        command.append("--taylor-hood")
     elif cell == "hex" and degree == 1:
         command.append("--no-fbar")  # plain Q1 (F-bar is the default there)
     if rtol is not None:
@@ -207,7 +214,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
     elapsed = time.time() - start
     after = loadavg()
     record = {"name": name, "model": model, "case": case, "cell": cell, "degree": degree,
-              "element": element_name(cell, degree, fbar), "n": n, "dt": dt, "solver": solver,
+              "element": element, "n": n, "dt": dt, "solver": solver,
               "ranks": np, "sets": list(sets), "petsc": list(petsc), "group": group,
               "fbar": fbar, "linear_rtol": rtol,
               **near_null_space_markers(solver, case),
@@ -312,8 +319,10 @@ def adopt(name, out, base):
     return record
 
 
-def element_name(cell, degree, fbar=False):
-    return {"hex": "Q", "tet": "P"}[cell] + str(degree) + ("F" if fbar else "")
+def element_name(cell, degree, fbar=False, taylor_hood=False):
+    """Q1, Q1F (F-bar), Q2, Q2TH (Taylor-Hood), P1, ..."""
+    return ({"hex": "Q", "tet": "P"}[cell] + str(degree) + ("F" if fbar else "")
+            + ("TH" if taylor_hood else ""))
 
 
 # ---------------------------------------------------------------------------
@@ -472,6 +481,7 @@ def collect(args):
         with open(path) as f:
             data["fresh"] = json.load(f)
     data["stiffsoft"] = stiffsoft.collect(args.work)
+    data["taylor_hood"] = taylor_hood.collect(args.work)
     path = os.path.join(args.work, "experiment_fno_math_errno.json")
     if os.path.exists(path):  # hand-made experiment, see BENCHMARKS.md
         with open(path) as f:
@@ -677,6 +687,9 @@ def map_runs(args, group):
         return (both(cell="hex", degree=1, n=1, dt=dt, petsc=q(4))
                 + both(cell="hex", degree=2, n=1, dt=dt, petsc=q(2) + ("-snes_max_it 10",))
                 + both(cell="hex", degree=2, n=1, dt=dt, petsc=q(6) + ("-snes_max_it 10",)))
+    if group == "taylor-hood":  # the mixed element, MUMPS and its Schur split
+        return (both(cell="hex", degree=2, n=1, dt=dt, taylor_hood=True)
+                + both(cell="hex", degree=2, n=1, dt=dt, taylor_hood=True, solver="gmres-schur"))
     if group == "late":
         runs = both(cell="tet", degree=2, n=1, dt=dt) + both(cell="tet", degree=1, n=2, dt=dt)
         return runs + [dict(case=case, **extra) for extra in args.map_extra
@@ -903,7 +916,7 @@ def plot_map(analysis, path, runs):
     import matplotlib.pyplot as plt
     floor = 1e-5  # errors below this are drawn on the floor (equal to the reference)
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
-    markers = {"Q1": "s", "Q2": "D", "P1": "^", "P2": "v", "Q1F": "o"}
+    markers = {"Q1": "s", "Q2": "D", "P1": "^", "P2": "v", "Q1F": "o", "Q2TH": "P"}
     for ax, case, title in ((axes[0], "isometric", "isometric force F33"),
                             (axes[1], "free", "free shortening 1 - epsilon")):
         pts = [p for p in analysis["points"] if p["case"] == case]
@@ -945,7 +958,7 @@ def plot_map(analysis, path, runs):
         ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=7, loc="center right")
-    fig.text(0.01, 0.01, "squares Q1, circles Q1 F-bar (Q1F), diamonds Q2, triangles P1/P2; blue: dt = 0.05 s; grey: "
+    fig.text(0.01, 0.01, "squares Q1, circles Q1 F-bar (Q1F), diamonds Q2, plus Q2 Taylor-Hood (Q2TH), triangles P1/P2; blue: dt = 0.05 s; grey: "
              "other time steps (end state is path-independent); red: penalty kappa (a model "
              "change, error = distance from the preset-kappa reference); qN: quadrature degree N; *: -snes_max_it 10",
              fontsize=7)
@@ -1056,6 +1069,7 @@ def update_results(args, data):
                "fresh_machine": data.get("fresh", {}),
                "stiff_soft_runs": list(data.get("stiffsoft", {}).values()),
                "kappa_runs": list(data.get("kappa", {}).values()),
+               "taylor_hood_runs": list(data.get("taylor_hood", {}).values()),
                "experiments": data.get("experiments", {})}
     if os.path.exists(args.results):  # hand-made entries (e.g. assembly_after_fno_math_errno)
         with open(args.results) as f:
@@ -1122,12 +1136,14 @@ def main():
               "solvers-n1": lambda a, r: phase_solvers(a, r, [1]),
               "solvers-n2": lambda a, r: phase_solvers(a, r, [2]),
               **{f"map-{g}": (lambda g: lambda a, r: phase_map(a, r, (g,)))(g)
-                 for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature")},
+                 for g in ("cheap", "q2", "n2-isometric", "n2-free", "late", "quadrature",
+                           "taylor-hood")},
               "knobs": phase_knobs, "fbar": phase_fbar, "restore": phase_restore,
               "linesearch": phase_linesearch, "fresh": phase_fresh, "stiffsoft": stiffsoft.phase,
               "stiffsoft-blocks": lambda a, r: stiffsoft.phase(a, r, ("blocks",)),
               "stiffsoft-shoulder": lambda a, r: stiffsoft.phase(a, r, ("shoulder",)),
               "kappa": phase_kappa, "kappa-n4": phase_kappa_n4,
+              "taylor-hood": taylor_hood.phase,
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

@@ -44,7 +44,7 @@ def run_with_timeout(command, timeout):
 
 
 def config_sets(config):
-    solver, nns, blocks = CONFIGS[config]
+    solver, nns, blocks = CONFIGS.get(config, (None, None, None))
     sets = [f"solver.linear={solver}"]
     if nns:
         sets += [f"solver.near_null_space={nns}",
@@ -52,9 +52,10 @@ def config_sets(config):
     return sets
 
 
-def run(args, study, config, scene, sets, name, extra, timeout=1800):
-    """One muscle-run (one rank) of `scene` with `sets` and the config's solver options."""
-    out = os.path.join(args.work, "stiffsoft", name)
+def run(args, study, config, scene, sets, name, extra, timeout=1800, folder="stiffsoft"):
+    """One muscle-run (one rank) of `scene` with `sets` and the config's solver options
+    (config None: the scene's and the sets' own), into WORK/folder/name."""
+    out = os.path.join(args.work, folder, name)
     record_path = os.path.join(out, "record.json")
     if args.reuse and os.path.exists(record_path):
         with open(record_path) as f:
@@ -62,7 +63,7 @@ def run(args, study, config, scene, sets, name, extra, timeout=1800):
             return json.load(f)
     os.makedirs(out, exist_ok=True)
     command = [os.path.join(args.build, "muscle-run"), scene, "--out", out, "--quiet"]
-    for s in list(sets) + config_sets(config):
+    for s in list(sets) + (config_sets(config) if config else []):
         command += ["--set", s]
     time_file = os.path.join(out, "time.txt")
     timed = ["/usr/bin/time", "-f", "%M %e %U %S", "-o", time_file, *command]
@@ -70,7 +71,7 @@ def run(args, study, config, scene, sets, name, extra, timeout=1800):
     print("  " + " ".join(shlex.quote(c) for c in command), flush=True)
     start = time.time()
     returncode, stderr = run_with_timeout(timed, timeout)
-    solver, nns, blocks = CONFIGS[config]
+    solver, nns, blocks = CONFIGS.get(config, (None, None, None))
     record = {"name": name, "study": study, "config": config, "solver": solver,
               "near_null_space": nns, "reduced_blocks": blocks, "ranks": 1, **extra,
               "command": " ".join(shlex.quote(c) for c in command),

@@ -28,7 +28,7 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from muscleforms import fbar, law as laws_module, loads, variants  # noqa: E402
+from muscleforms import fbar, law as laws_module, loads, taylor_hood, variants  # noqa: E402
 
 
 ALL_ELEMENTS = [(c, d) for c in variants.CELLS for d in (1, 2)]
@@ -49,16 +49,19 @@ def parse_elements(text):
 
 
 def kernel_variants(kernels, law, extra=()):
-    """(kernels, cell, degree, qdeg, vqdeg, fbar) of one kernel set."""
+    """(kernels, cell, degree, qdeg, vqdeg, kind) of one kernel set; kind "", "fbar" or
+    "th" (variants.variant_name)."""
     out = []
     for cell, degree in ELEMENTS:
         qdeg = variants.DEFAULT_QUADRATURE[(cell, degree)]
-        out.append((kernels, cell, degree, qdeg, qdeg, False))
+        out.append((kernels, cell, degree, qdeg, qdeg, ""))
         vqdeg = variants.REDUCED_VOLUMETRIC.get((cell, degree))
         if vqdeg is not None and law.volumetric_stiff_part is not None:
-            out.append((kernels, cell, degree, qdeg, vqdeg, False))
+            out.append((kernels, cell, degree, qdeg, vqdeg, ""))
         if (cell, degree) in fbar.FBAR_ELEMENTS:
-            out.append((kernels, cell, degree, qdeg, qdeg, True))
+            out.append((kernels, cell, degree, qdeg, qdeg, "fbar"))
+        if (cell, degree) in taylor_hood.TAYLOR_HOOD_ELEMENTS:
+            out.append((kernels, cell, degree, qdeg, qdeg, "th"))
     out = [v for v in out if re.search(VARIANTS[0], variants.variant_name(*v))]
     out += [v for v in extra if v[0] == kernels and v not in out]
     return out
@@ -78,7 +81,7 @@ def parse_variant(text, sets):
     if vqdeg != qdeg and sets[kernels][0].volumetric_stiff_part is None:
         raise SystemExit(f"--extra-variant {text!r}: law {sets[kernels][0].name} gives no "
                          f"volumetric_stiff_part")
-    return kernels, cell, degree, qdeg, vqdeg, False
+    return kernels, cell, degree, qdeg, vqdeg, ""
 
 
 def write_if_changed(path, text):
@@ -121,8 +124,9 @@ def compile_law(law, sets, extra, outdir, parameters):
         if owner is not law:
             continue
         for v in kernel_variants(kernels, law, extra):
-            names = (fbar.build_fbar_variant(law, active, *v[1:4]) if v[5]
-                     else variants.build_fe_variant(law, active, *v[1:5]))
+            names = (fbar.build_fbar_variant(law, active, *v[1:4]) if v[5] == "fbar"
+                     else taylor_hood.build_taylor_hood_variant(law, active, *v[1:4])
+                     if v[5] == "th" else variants.build_fe_variant(law, active, *v[1:5]))
             compile_objects(names, variants.variant_name(*v), outdir, parameters)
         compile_objects(variants.build_material_point_variant(law, active), f"mp_{kernels}",
                         outdir, parameters)
@@ -163,12 +167,16 @@ def registry_source(laws, sets, extra):
     lines += [f'#include "{n}.h"' for n in load_prefixes()]
     lines += ["", "namespace", "{", "constexpr double inf = std::numeric_limits<double>::infinity();"]
     for v in fe:
-        if v[5]:
-            n = variants.variant_name(*v)
+        n = variants.variant_name(*v)
+        if v[5] == "fbar":
             kernels = ", ".join(f"form_{n}_fbar_{k}" for k in
                                 ("residual", "jacobian", "centre", "gradient", "hessian"))
             lines.append(f"const muscle::forms::FbarForms fbar_{n} = {{{kernels}, "
                          f"expression_{n}_fbar_centre_dilatation}};")
+        elif v[5] == "th":
+            kernels = ", ".join(f"form_{n}_th_{k}" for k in
+                                ("residual", "jacobian_uq", "jacobian_qu", "jacobian_qq"))
+            lines.append(f"const muscle::forms::TaylorHoodForms th_{n} = {{{kernels}}};")
     compiled = ",".join(f"{c}{d}" for c, d in ELEMENTS)
     lines += ["} // namespace", "", "namespace muscle::forms", "{", "",
               f'const char* compiled_elements() {{ return "{compiled}"; }}',
@@ -179,9 +187,9 @@ def registry_source(laws, sets, extra):
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<FeVariant>& fe_variants()", "{",
               "  static const std::vector<FeVariant> table = {"]
-    for (kernels, cell, degree, qdeg, vqdeg, with_fbar) in fe:
+    for (kernels, cell, degree, qdeg, vqdeg, kind) in fe:
         law, active = sets[kernels]
-        n = variants.variant_name(kernels, cell, degree, qdeg, vqdeg, with_fbar)
+        n = variants.variant_name(kernels, cell, degree, qdeg, vqdeg, kind)
         stretch = (f"expression_{n}_fibre_stretch"
                    if active and law.activation.drive == "omega_kernel" else "nullptr")
         split = (f"form_{n}_residual_volumetric, form_{n}_jacobian_volumetric" if vqdeg != qdeg
@@ -189,7 +197,8 @@ def registry_source(laws, sets, extra):
         lines.append(f'      {{"{kernels}", "{variants.CELLS[cell]}", {degree}, {qdeg}, {vqdeg}, '
                      f'form_{n}_residual, form_{n}_jacobian, {split}, form_{n}_volume, form_{n}_energy, '
                      f'functionspace_form_{n}_residual, {stretch}, expression_{n}_post, '
-                     f'{"&fbar_" + n if with_fbar else "nullptr"}}},')
+                     f'{"&fbar_" + n if kind == "fbar" else "nullptr"}, '
+                     f'{"&th_" + n if kind == "th" else "nullptr"}}},')
     lines += ["  };", "  return table;", "}", "",
               "const std::vector<MaterialPointVariant>& material_point_variants()", "{",
               "  static const std::vector<MaterialPointVariant> table = {"]

@@ -116,7 +116,7 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
   _variant = &forms::find_fe_variant(_kernels, cell, discretisation.degree,
                                      discretisation.quadrature_degree,
                                      discretisation.volumetric_quadrature_degree,
-                                     discretisation.fbar);
+                                     discretisation.fbar, discretisation.taylor_hood);
   const forms::FeVariant& v = *_variant;
 
   _V = std::make_shared<fem::FunctionSpace>(
@@ -171,6 +171,18 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
     _fbar_pressure->name = "fbar_pressure";
     coefficients["fbar_pressure"] = _fbar_pressure;
   }
+  if (v.taylor_hood)
+  {
+    if (region)
+      throw InputError("Taylor-Hood elements are built for a body of one material (one "
+                       "part); this body has several");
+    auto Q = std::make_shared<fem::FunctionSpace>(
+        fem::create_functionspace(v.function_space, "th_state", mesh));
+    _th_state = std::make_shared<fem::Function<double>>(Q);
+    _th_state->name = "theta_pressure";
+    reset_th_state();
+    coefficients["th_state"] = _th_state;
+  }
   for (const std::string& name : fem::get_coefficient_names(*v.residual))
   {
     if (name.rfind("omega_a", 0) == 0 or name.rfind("domega_a", 0) == 0
@@ -200,6 +212,18 @@ MuscleProblem::MuscleProblem(std::shared_ptr<mesh::Mesh> mesh,
       fem::create_form<double>(*v.volume, {}, coefficients, constants, {}, mesh));
   _energy = std::make_shared<fem::Form<double>>(
       fem::create_form<double>(*v.energy, {}, coefficients, constants, {}, mesh));
+  if (v.taylor_hood)
+  {
+    auto Q = _th_state->function_space();
+    auto form = [&](const ufcx_form* f, std::vector<std::shared_ptr<const fem::FunctionSpace>> spaces)
+    {
+      return std::make_shared<const fem::Form<double>>(
+          fem::create_form<double>(*f, spaces, coefficients, constants, {}));
+    };
+    _th_forms = {form(v.taylor_hood->residual, {Q}), form(v.taylor_hood->jacobian_uq, {_V, Q}),
+                 form(v.taylor_hood->jacobian_qu, {Q, _V}),
+                 form(v.taylor_hood->jacobian_qq, {Q, Q})};
+  }
   _residual_kernel = _fbar ? _fbar->residual(*v.residual, *_residual)
                           : cell_kernel(*v.residual, *_residual, v.residual_volumetric);
   const Kernel jacobian_kernel
@@ -301,6 +325,13 @@ void MuscleProblem::reset_fbar_theta() const
   std::span<double> x = _fbar_J0->x()->mutable_array();
   for (std::size_t i = 0; i < _cells.size(); ++i)
     x[dofmap.cell_dofs(_cells[i])[0]] = J0(i, 0);
+}
+
+void MuscleProblem::reset_th_state()
+{
+  std::span<double> q = _th_state->x()->mutable_array();
+  for (std::size_t i = 0; i < q.size(); ++i)
+    q[i] = i % 2 == 0 ? 1.0 : 0.0;
 }
 
 void MuscleProblem::update_centre_dilatation() const

@@ -36,6 +36,10 @@ struct Discretisation
   /// F-bar hexahedron (Q1): the energy at F_bar = (J0/J)^(1/3) F, J0 = det F at
   /// the cell centre -- the paper's locking-free element, for every model.
   bool fbar = false;
+  /// Taylor-Hood (degree 2): the energy at F_bar = (theta/J)^(1/3) F with the
+  /// volume ratio theta and its multiplier p continuous of degree 1, unknowns of
+  /// the Newton system next to u (forms/muscleforms/taylor_hood.py).
+  bool taylor_hood = false;
 };
 
 /// Outcome of evaluating the quadrature-point activation kernels.
@@ -127,6 +131,21 @@ public:
   std::shared_ptr<dolfinx::fem::Form<double>>
   fbar_three_field_form(bool jacobian, FbarElement::CellData& data) const;
 
+  /// Taylor-Hood elements (Discretisation::taylor_hood).
+  bool taylor_hood() const { return _th_state != nullptr; }
+  /// Taylor-Hood: q = (theta, p), the degree-1 field of two components the
+  /// forms read, and the blocks of the Newton system besides residual() and
+  /// jacobian() (R_q, dR_u/dq, dR_q/du, dR_q/dq).
+  std::shared_ptr<dolfinx::fem::Function<double>> th_state() const { return _th_state; }
+  struct TaylorHoodForms
+  {
+    std::shared_ptr<const dolfinx::fem::Form<double>> residual, jacobian_uq, jacobian_qu,
+        jacobian_qq;
+  };
+  const TaylorHoodForms& th_forms() const { return _th_forms; }
+  /// theta = 1, p = 0: the reference state's (theta, p) of a law without prestress.
+  void reset_th_state();
+
   /// The residual assembled over the cells tagged `value` only (same kernel):
   /// summing it over the nodes of an interface gives the force the rest of the
   /// body transmits through it, the variationally consistent section force.
@@ -195,6 +214,8 @@ private:
   std::shared_ptr<const FbarElement> _fbar;
   std::shared_ptr<dolfinx::fem::Function<double>> _fbar_J0, _fbar_pressure;
   bool _hold_theta = false;
+  std::shared_ptr<dolfinx::fem::Function<double>> _th_state;
+  TaylorHoodForms _th_forms;
   std::shared_ptr<dolfinx::fem::Expression<double>> _centre_dilatation;
   void update_centre_dilatation() const;
   std::vector<double> _quadrature_weights;

@@ -68,24 +68,15 @@ PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void*
     self->set_extended_state(x);
     self->extended_residual(F);
   }
+  else if (self->_taylor_hood)
+  {
+    self->set_mixed_state(x);
+    self->mixed_residual(F);
+  }
   else
   {
     self->set_state(x);
-    std::span<double> b = self->_b.mutable_array();
-    std::fill(b.begin(), b.end(), 0.0);
-    std::span<const double> u = self->_problem.u()->x()->array();
-    for (MuscleProblem* part : self->_parts)
-    {
-      fem::assemble_vector<double>(b, *part->residual());
-      fem::apply_lifting<double>(b, {part->jacobian()}, {self->_bcs}, {u}, -1.0);
-    }
-    for (const auto& r : self->_extra_residuals)
-      fem::assemble_vector<double>(b, *r);
-    for (const auto& J : self->_extra_jacobians)
-      fem::apply_lifting<double>(b, {J}, {self->_bcs}, {u}, -1.0);
-    self->_b.scatter_rev(std::plus<double>());
-    self->add_term_residuals(b);
-    fem::set_bc<double>(b, self->_bcs, u, -1.0);
+    self->displacement_residual();
     if (self->_constraint)
       MatMultTranspose(self->_constraint->T(), self->_F_full, F);
     else
@@ -101,6 +92,25 @@ PetscErrorCode NonlinearSolver::residual_callback(SNES snes, Vec x, Vec F, void*
     SNESSetFunctionDomainError(snes);
   }
   return 0;
+}
+
+void NonlinearSolver::displacement_residual()
+{
+  std::span<double> b = _b.mutable_array();
+  std::fill(b.begin(), b.end(), 0.0);
+  std::span<const double> u = _problem.u()->x()->array();
+  for (MuscleProblem* part : _parts)
+  {
+    fem::assemble_vector<double>(b, *part->residual());
+    fem::apply_lifting<double>(b, {part->jacobian()}, {_bcs}, {u}, -1.0);
+  }
+  for (const auto& r : _extra_residuals)
+    fem::assemble_vector<double>(b, *r);
+  for (const auto& J : _extra_jacobians)
+    fem::apply_lifting<double>(b, {J}, {_bcs}, {u}, -1.0);
+  _b.scatter_rev(std::plus<double>());
+  add_term_residuals(b);
+  fem::set_bc<double>(b, _bcs, u, -1.0);
 }
 
 void NonlinearSolver::assemble_full_jacobian()
@@ -135,6 +145,11 @@ PetscErrorCode NonlinearSolver::jacobian_callback(SNES snes, Vec x, Mat J, Mat, 
     self->set_extended_state(x);
     self->assemble_three_field_jacobian();
   }
+  else if (self->_taylor_hood)
+  {
+    self->set_mixed_state(x);
+    self->assemble_mixed_jacobian();
+  }
   else
   {
     self->set_state(x);
@@ -148,8 +163,8 @@ PetscErrorCode NonlinearSolver::jacobian_callback(SNES snes, Vec x, Mat J, Mat, 
     SNESSetJacobianDomainError(snes);
     return 0;
   }
-  // (three-field: the condensed matrix is reduced with its assembly)
-  if (!three_field and self->_constraint)
+  // (three-field, Taylor-Hood: the matrices are reduced with their assembly)
+  if (!three_field and !self->_taylor_hood and self->_constraint)
     self->reduce(J, false);
   return 0;
 }
@@ -165,9 +180,13 @@ PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
   // A residual cannot be computed more accurately than round-off in the
   // largest element forces, eps |J| |x|; with a stiff penalty that floor can
   // lie above any fixed atol, and Newton would stagnate there.
-  // (three-field: |x| of the displacement block only -- theta and p have other units)
-  const double floor = 100 * std::numeric_limits<double>::epsilon() * self->_matrix_norm
-                       * (self->_cell_unknowns.empty() ? xnorm : self->displacement_norm(snes));
+  // (three-field: |x| of the displacement block only -- theta and p have other
+  // units.  Taylor-Hood: mixed_floor)
+  const double floor
+      = self->_taylor_hood
+            ? 100 * self->mixed_floor(snes)
+            : 100 * std::numeric_limits<double>::epsilon() * self->_matrix_norm
+                  * (self->_cell_unknowns.empty() ? xnorm : self->displacement_norm(snes));
   if (*reason == SNES_CONVERGED_ITERATING and std::isfinite(floor) and fnorm <= floor)
     *reason = SNES_CONVERGED_FNORM_ABS;
   // three-field: converged only once theta = J0(u) too (R_p is tiny in the norm)

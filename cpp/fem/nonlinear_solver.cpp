@@ -93,12 +93,20 @@ NonlinearSolver::NonlinearSolver(
     VecDuplicate(_u_petsc, &_x);
     VecDuplicate(_b_petsc, &F);
   }
+  const bool taylor_hood = _problem.taylor_hood();
   if (three_field)
   {
     VecDestroy(&F);
     create_cell_unknowns();
     VecDuplicate(_x_ext, &F);
     J = _J_ext;
+  }
+  else if (taylor_hood)
+  {
+    VecDestroy(&F);
+    create_pressure_unknowns();
+    VecDuplicate(_x_ext, &F);
+    J = _J_mixed;
   }
   else if (_constraint)
   {
@@ -155,11 +163,17 @@ void NonlinearSolver::configure_linear_solver(KSP linear)
     KSPSetType(linear, KSPGMRES);
     KSPSetTolerances(linear, _options.linear_rtol, 1e-14, PETSC_DEFAULT, 2000);
     KSPGMRESSetRestart(linear, 200);
-    if (_options.linear_solver == "gmres-schur")
+    if (_options.linear_solver == "gmres-schur" and _taylor_hood)
+    {
+      configure_mixed_split(pc);
+      KSPSetPCSide(linear, PC_RIGHT);
+    }
+    else if (_options.linear_solver == "gmres-schur")
     {
       if (!_inner)
         throw InputError("linear solver gmres-schur: only for F-bar elements with the "
-                         "three-field Newton (element.fbar: true, cell unknowns on)");
+                         "three-field Newton (element.fbar: true, cell unknowns on) and for "
+                         "Taylor-Hood elements (element.taylor_hood: true)");
       _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get(),
                                           _options.near_null_space == "bodies");
       create_penalty_split(_problem.mesh()->comm());
@@ -200,6 +214,12 @@ NonlinearSolver::~NonlinearSolver()
   for (Vec* v : {&_soft_y, &_soft_r, &_saddle_b, &_saddle_x, &_part_in, &_part_out})
     VecDestroy(v);
   MatDestroy(&_J_ext);
+  for (Mat& M : _th_blocks)
+    MatDestroy(&M);
+  for (Mat& M : _th_reduced)
+    MatDestroy(&M);
+  MatDestroy(&_J_nest);
+  MatDestroy(&_J_mixed);
   for (Vec* v : {&_x_ext, &_rhs, &_sol, &_tmp})
     VecDestroy(v);
   MatDestroy(&_A);
@@ -225,6 +245,9 @@ Mat NonlinearSolver::assemble_tangent()
   if (!_cell_unknowns.empty())
     throw InputError("the tangent of F-bar elements is condensed inside each solve: natural "
                      "frequencies need another element (element.fbar: false, or degree 2)");
+  if (_taylor_hood)
+    throw InputError("the tangent of Taylor-Hood elements holds the pressure: natural "
+                     "frequencies need a displacement element (element.taylor_hood: false)");
   _last_kernel = update_activation();
   assemble_full_jacobian();
   return _A;
@@ -308,6 +331,16 @@ KernelStatus NonlinearSolver::restore_displacement()
   _problem.u()->x()->scatter_fwd();
   for (auto& cells : _cell_unknowns)
     cells->initialise();
+  if (_taylor_hood)
+  {
+    // the restored u is the last converged state's (a cut step): so is its q
+    auto q = _problem.th_state()->x();
+    if (_q_converged.empty())
+      _problem.reset_th_state();
+    else
+      std::copy(_q_converged.begin(), _q_converged.end(), q->mutable_array().begin());
+    q->scatter_fwd();
+  }
   _last_kernel = update_activation();
   return _last_kernel;
 }
@@ -346,13 +379,26 @@ NewtonReport NonlinearSolver::solve()
     error = SNESSolve(_snes, nullptr, _x_ext);
     set_extended_state(_x_ext);
   }
+  else if (_taylor_hood)
+  {
+    get_mixed_state(_x_ext);
+    error = SNESSolve(_snes, nullptr, _x_ext);
+    set_mixed_state(_x_ext);
+  }
   else
   {
     error = SNESSolve(_snes, nullptr, _x);
     set_state(_x); // leave u (and omega_a) at the final iterate
   }
   quiet.reset();
-  return outcome(error, inner_before);
+  NewtonReport report = outcome(error, inner_before);
+  if (_taylor_hood and report.converged)
+  {
+    auto q = _problem.th_state()->x();
+    _q_converged.assign(q->array().begin(),
+                        q->array().begin() + q->map()->size_local() * q->bs());
+  }
+  return report;
 }
 
 } // namespace muscle

@@ -4,6 +4,7 @@
 
 #include <dolfinx/fem/DirichletBC.h>
 #include <dolfinx/la/Vector.h>
+#include <array>
 #include <memory>
 #include <petscsnes.h>
 #include <string>
@@ -181,6 +182,9 @@ private:
                                          SNESConvergedReason* reason, void* ctx);
   /// u (and the activation kernels) at the SNES iterate x
   void set_state(Vec x);
+  /// _b = the displacement residual at u: every part, the loads and terms,
+  /// lifted, Dirichlet rows u - g (owned entries complete)
+  void displacement_residual();
   void assemble_full_jacobian();
   /// _A += the loads' and the terms' tangents, identity rows of the Dirichlet
   /// dofs, final assembly; _matrix_norm
@@ -220,6 +224,32 @@ private:
     std::vector<std::span<double>> cells;
   };
   Blocks blocks(double* array) const;
+
+  // taylor_hood_newton.cpp: Taylor-Hood, the SNES vector [u | q] with q = (theta, p)
+  void create_pressure_unknowns();
+  /// u, q (and the activation kernels) at the SNES iterate
+  void set_mixed_state(Vec x);
+  void mixed_residual(Vec F);
+  /// the blocks, their nest and (for a factorisation) its assembled copy
+  void assemble_mixed_jacobian();
+  /// [u | q] of the current state into x
+  void get_mixed_state(Vec x);
+  /// The round-off level of the residual at the SNES iterate (without the
+  /// safety factor): eps (|A| |u| + |A_mixed| |theta|)
+  double mixed_floor(SNES snes) const;
+  double _mixed_norm = 0; ///< infinity norm of _J_mixed
+  /// gmres-schur on the Taylor-Hood system: PCFIELDSPLIT, u and q
+  void configure_mixed_split(PC pc);
+  /// the coupling blocks under the constraint: T^T A_uq, A_qu T
+  void reduce_mixed_blocks(bool first);
+  std::array<Mat, 2> _th_reduced{};
+  bool _taylor_hood = false;
+  std::unique_ptr<dolfinx::la::Vector<double>> _bq; ///< q residual, with ghosts
+  std::array<Mat, 3> _th_blocks{};  ///< dR_u/dq, dR_q/du, dR_q/dq
+  Mat _J_nest = nullptr;  ///< [[A, A_uq], [A_qu, A_qq]]
+  Mat _J_mixed = nullptr; ///< the nest assembled (MUMPS)
+  PetscObjectState _mixed_state = -1; ///< A's nonzero state when _J_mixed was made
+  std::vector<double> _q_converged; ///< q of the last converged solve (owned)
 
   // penalty_split.cpp: "gmres-schur", the preconditioner of the condensed system
   void create_penalty_split(MPI_Comm comm);

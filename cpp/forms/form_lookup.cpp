@@ -31,7 +31,8 @@ std::string element_not_compiled(const std::string& cell, int degree)
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
                                  int quadrature_degree,
-                                 int volumetric_quadrature_degree, bool fbar)
+                                 int volumetric_quadrature_degree, bool fbar,
+                                 bool taylor_hood)
 {
   if (quadrature_degree < 0)
     quadrature_degree = default_quadrature_degree(cell, degree);
@@ -45,6 +46,8 @@ const FeVariant& find_fe_variant(const std::string& model,
       s += " (volumetric " + std::to_string(v.volumetric_quadrature_degree) + ")";
     if (v.fbar)
       s += " F-bar";
+    if (v.taylor_hood)
+      s += " Taylor-Hood";
     return s;
   };
   std::vector<std::string> available;
@@ -53,7 +56,7 @@ const FeVariant& find_fe_variant(const std::string& model,
     if (model == v.model and cell == v.cell and degree == v.degree
         and quadrature_degree == v.quadrature_degree
         and volumetric_quadrature_degree == v.volumetric_quadrature_degree
-        and fbar == (v.fbar != nullptr))
+        and fbar == (v.fbar != nullptr) and taylor_hood == (v.taylor_hood != nullptr))
     {
       return v;
     }
@@ -66,6 +69,8 @@ const FeVariant& find_fe_variant(const std::string& model,
               + std::to_string(volumetric_quadrature_degree);
   if (fbar)
     wanted += " as F-bar element";
+  if (taylor_hood)
+    wanted += " as Taylor-Hood element";
   // the likeliest reason first: a build for one job leaves whole elements out
   std::string why = element_not_compiled(cell, degree);
   if (why.empty() and *compiled_variants())
@@ -76,6 +81,9 @@ const FeVariant& find_fe_variant(const std::string& model,
   else if (why.empty() and fbar)
     why = " F-bar is compiled for hexahedra of degree 1 with quadrature degree 2 (Q2 does "
           "not lock; on tetrahedra the centre value is the whole P1 field).";
+  else if (why.empty() and taylor_hood)
+    why = " Taylor-Hood is compiled for degree-2 displacements (Q2-Q1 hexahedra, P2-P1 "
+          "tetrahedra) with the default quadrature degree.";
   else if (why.empty() and volumetric_quadrature_degree != quadrature_degree)
     why = " The anti-locking element is compiled on hexahedra of degree 1 for the laws "
           "whose file gives volumetric_stiff_part (BLE: WKM, GIANT and COMBI need their "

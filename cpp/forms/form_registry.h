@@ -54,6 +54,17 @@ struct FbarForms
   ufcx_expression* centre_dilatation; ///< J0 at the centre point, for the DG0 field
 };
 
+/// The Taylor-Hood element's blocks besides the displacement's own
+/// (forms/muscleforms/taylor_hood.py): q = (theta, p), the continuous degree-1
+/// field "th_state" of two components.
+struct TaylorHoodForms
+{
+  ufcx_form* residual;    ///< R_q on q's test space
+  ufcx_form* jacobian_uq; ///< dR_u/dq
+  ufcx_form* jacobian_qu; ///< dR_q/du
+  ufcx_form* jacobian_qq; ///< dR_q/dq
+};
+
 /// Finite-element kernels of one material model on one element type.
 struct FeVariant
 {
@@ -77,6 +88,9 @@ struct FeVariant
   ufcx_expression* post; ///< [lambda, sigma_m, von Mises, J] at quadrature points
   /// F-bar hexahedron, else null; then residual/jacobian only carry the cell data
   const FbarForms* fbar;
+  /// Taylor-Hood element, else null; then residual/jacobian are the displacement
+  /// block at the current (theta, p)
+  const TaylorHoodForms* taylor_hood;
 };
 
 /// Energy, stress and tangent of a model at a cell-wise constant displacement
@@ -137,11 +151,12 @@ int default_quadrature_degree(const std::string& cell, int degree);
 /// Look up a compiled variant; InputError listing what is available otherwise.
 /// quadrature_degree < 0 selects the default for the element,
 /// volumetric_quadrature_degree < 0 the same rule as the rest of the energy;
-/// `fbar` selects the F-bar hexahedron.
+/// `fbar` selects the F-bar hexahedron, `taylor_hood` the mixed element.
 const FeVariant& find_fe_variant(const std::string& model,
                                  const std::string& cell, int degree,
                                  int quadrature_degree = -1,
-                                 int volumetric_quadrature_degree = -1, bool fbar = false);
+                                 int volumetric_quadrature_degree = -1, bool fbar = false,
+                                 bool taylor_hood = false);
 const MaterialPointVariant& find_material_point_variant(const std::string& model);
 
 } // namespace muscle::forms

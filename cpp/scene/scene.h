@@ -187,6 +187,8 @@ struct MeshSpec
   /// (use_fbar), decided once the mesh's cells are known
   std::optional<bool> fbar;
   SceneLocation fbar_where; ///< of element.fbar, if given
+  /// Taylor-Hood (degree 2: Q2-Q1, P2-P1), the pressure an unknown of its own
+  bool taylor_hood = false;
   SceneLocation where;
 };
 

@@ -81,8 +81,11 @@ std::vector<std::shared_ptr<fem::Function<double>>> SceneModel::state() const
 
 std::int64_t SceneModel::unknowns() const
 {
-  return constraint ? constraint->reduced_size()
-                    : problem().V()->dofmap()->index_map->size_global() * 3;
+  std::int64_t n = constraint ? constraint->reduced_size()
+                              : problem().V()->dofmap()->index_map->size_global() * 3;
+  if (problem().taylor_hood()) // theta and p on the degree-1 nodes
+    n += problem().th_state()->function_space()->dofmap()->index_map->size_global() * 2;
+  return n;
 }
 
 SceneModel read_mesh(const Scene& scene)
@@ -117,7 +120,7 @@ void choose_element(const Scene& scene, SceneModel& model)
   }
   model.cell_type = cell_type;
   model.element = {scene.mesh.degree, scene.mesh.quadrature_degree,
-                   scene.mesh.volumetric_quadrature_degree, fbar};
+                   scene.mesh.volumetric_quadrature_degree, fbar, scene.mesh.taylor_hood};
   for (const Part& part : scene.parts)
     if (std::string w = locking_warning(cell_type, scene.mesh.degree, fbar, anti_locking,
                                         part.parameters);
@@ -487,7 +490,8 @@ nlohmann::json describe_built(const Scene& scene, const SceneModel& model, bool 
   built["mass_matrix"] = false;
   built["element"] = {{"cell", model.cell_type},
                       {"degree", scene.mesh.degree},
-                      {"fbar", model.element.fbar}};
+                      {"fbar", model.element.fbar},
+                      {"taylor_hood", model.element.taylor_hood}};
   built["unknowns"] = unknowns;
   // separately meshed bodies: GAMG's near-null space has six modes per body
   built["bodies"] = mesh_bodies(*model.problem().V()).count;
@@ -497,7 +501,8 @@ nlohmann::json describe_built(const Scene& scene, const SceneModel& model, bool 
     std::printf("%s: %s, %lld cells, %lld unknowns, %s%s degree %d, forms %s\n",
                 scene.file.c_str(), scene.title.c_str(),
                 static_cast<long long>(model.gm.num_cells), static_cast<long long>(unknowns),
-                model.element.fbar ? "F-bar " : "", model.cell_type.c_str(), scene.mesh.degree,
+                model.element.fbar ? "F-bar " : model.element.taylor_hood ? "Taylor-Hood " : "",
+                model.cell_type.c_str(), scene.mesh.degree,
                 forms_text.c_str());
   return built;
 }

@@ -848,7 +848,8 @@ Scene parse_scene(const std::string& text, const std::string& name,
   const Entry el = top["element"];
   if (el.defined())
   {
-    el.require_map({"degree", "quadrature_degree", "volumetric_quadrature_degree", "fbar"});
+    el.require_map(
+        {"degree", "quadrature_degree", "volumetric_quadrature_degree", "fbar", "taylor_hood"});
     scene.mesh.degree = el["degree"].integer(1, 1, 2);
     scene.mesh.quadrature_degree = el["quadrature_degree"].integer(-1, 1, 12);
     scene.mesh.volumetric_quadrature_degree
@@ -866,6 +867,19 @@ Scene parse_scene(const std::string& text, const std::string& name,
         {
           el["fbar"].fail(e.what());
         }
+    }
+    scene.mesh.taylor_hood = el["taylor_hood"].flag(false);
+    if (scene.mesh.taylor_hood)
+    {
+      if (scene.mesh.degree != 2)
+        el["taylor_hood"].fail("the Taylor-Hood element has a degree-2 displacement (Q2-Q1, "
+                               "P2-P1): set element.degree: 2");
+      if (scene.mesh.fbar.value_or(false) or scene.mesh.volumetric_quadrature_degree >= 0)
+        el["taylor_hood"].fail("Taylor-Hood is an element of its own: not with fbar or "
+                               "volumetric_quadrature_degree");
+      if (scene.mesh.quadrature_degree >= 0)
+        el["taylor_hood"].fail("Taylor-Hood is compiled with the default quadrature degree "
+                               "(4); leave quadrature_degree out");
     }
   }
 

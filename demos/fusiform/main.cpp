@@ -2,7 +2,7 @@
 // muscle contraction"), one model and case per run.
 //
 //   fusiform --model {ble,wkm,giant,combi} --case {isometric,free}
-//            --refinement {1,2,4} [--cell hex|tet] [--degree 1|2] [--no-fbar]
+//            --refinement {1,2,4} [--cell hex|tet] [--degree 1|2] [--no-fbar] [--taylor-hood]
 //            [--dt SECONDS] [--set NAME=VALUE ...] --out DIR    (all options: --help)
 //
 // The scene runner with command-line options: the run is the scene file
@@ -88,6 +88,11 @@ Run parse(std::vector<std::string> args)
   app.add_flag("--no-fbar", fbar_off,
                "plain Q1 hexahedra instead of F-bar (they lock: +6 % force at n = 1, "
                "BENCHMARKS.md)")
+      ->excludes(fbar_option);
+  bool taylor_hood = false;
+  app.add_flag("--taylor-hood", taylor_hood,
+               "Taylor-Hood elements (with --degree 2: Q2-Q1, P2-P1), the pressure an unknown "
+               "of its own")
       ->excludes(fbar_option);
   app.add_flag("--fbar-displacement-newton", displacement_newton,
                "F-bar: Newton on u alone (theta = J0(u)) instead of (u, theta, p); same "
@@ -199,6 +204,8 @@ Run parse(std::vector<std::string> args)
     }
     set("element.fbar", fbar_on ? "true" : "false");
   }
+  if (taylor_hood)
+    set("element.taylor_hood", "true");
   // the scene's step is BLE's and COMBI's; WKM and GIANT resolve the twitch train
   if (!app.count("--dt"))
     dt = uses_twitch_train(parse_model(run.model)) ? "0.001" : "0.005";

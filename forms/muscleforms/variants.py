@@ -34,12 +34,13 @@ DEFAULT_QUADRATURE = {("hex", 1): 2, ("hex", 2): 4, ("tet", 1): 2, ("tet", 2): 4
 REDUCED_VOLUMETRIC = {("hex", 1): 1}
 
 
-def variant_name(kernels, cell, degree, qdeg, vqdeg=None, fbar=False):
+def variant_name(kernels, cell, degree, qdeg, vqdeg=None, kind=""):
     """vqdeg: quadrature degree of the stiff volumetric part when it differs from qdeg;
-    fbar: the F-bar element (fbar.py)."""
+    kind: "" (the displacement element), "fbar" (fbar.py) or "th" (Taylor-Hood,
+    taylor_hood.py)."""
     name = f"{kernels}_{cell}{degree}_q{qdeg}"
-    if fbar:
-        return f"{name}_fbar"
+    if kind:
+        return f"{name}_{kind}"
     return name if vqdeg in (None, qdeg) else f"{name}_v{vqdeg}"
 
 

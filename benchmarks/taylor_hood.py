@@ -1,0 +1,55 @@
+"""Phase taylor-hood of run_benchmarks.py: the Taylor-Hood element (Q2-Q1) against plain Q2
+on the bending-dominated, nearly incompressible cantilever under follower pressure
+(demos/scenes/cantilever_pressure.yaml, lambda / mu = 1000, tip -0.41 L), by refinement:
+tip deflection, wall time, Newton iterations, unknowns.  Runs go to
+WORK/taylor_hood/NAME (summary.json, series.csv, time.txt, record.json); --reuse keeps
+completed ones."""
+import glob
+import json
+import os
+
+import stiffsoft
+from stiffsoft import ROOT
+
+SCENE = os.path.join(ROOT, "demos", "scenes", "cantilever_pressure.yaml")
+TAYLOR_HOOD = ["element.degree=2", "element.taylor_hood=true"]
+# element: (scene keys, refinements); Q2 locks mildly, so it needs the finer meshes
+ELEMENTS = {"Q2": (["element.degree=2"], (1, 2, 3, 4)),
+            "Q2TH": (TAYLOR_HOOD, (1, 2, 3)),
+            "Q2TH-schur": (TAYLOR_HOOD + ["solver.linear=gmres-schur"], (1, 2, 3))}
+
+
+def tip(out):
+    """The last row's tip_z of a run's series.csv, or None."""
+    path = os.path.join(out, "series.csv")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        lines = [line.strip().split(",") for line in f if line.strip()]
+    row = dict(zip(lines[0], lines[-1]))
+    return float(row["tip_z"]) if len(lines) > 1 else None
+
+
+def phase(args, records):
+    for element, (sets, refinements) in ELEMENTS.items():
+        for refinement in refinements:
+            name = f"cantilever_{element}_r{refinement}"
+            r = stiffsoft.run(args, "cantilever", None, SCENE,
+                              sets + [f"mesh.set.refinement={refinement}",
+                                      "output.fields=false", "output.plots=false"],
+                              name, {"element": element, "refinement": refinement},
+                              timeout=3600, folder="taylor_hood")
+            r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
+            r["solver"] = "gmres-schur" if "schur" in element else "lu"
+            records.put("taylor_hood", r["name"], r)
+
+
+def collect(work):
+    """The records of this phase in WORK, by name."""
+    out = {}
+    for path in sorted(glob.glob(os.path.join(work, "taylor_hood", "*", "record.json"))):
+        with open(path) as f:
+            r = json.load(f)
+        r["tip_z"] = tip(os.path.dirname(path))
+        out[r["name"]] = r
+    return out

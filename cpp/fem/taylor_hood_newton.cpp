@@ -1,0 +1,269 @@
+// Taylor-Hood Newton: the SNES vector is [u owned | q owned] with q = (theta, p)
+// the degree-1 field of the mixed element, the Jacobian the nest of the
+// displacement block (everything the displacement Newton assembles: loads,
+// contact, Dirichlet rows) and the three blocks of q.  Under a linear
+// constraint u = T x the displacement part is x: the blocks T^T A T, T^T A_uq
+// and A_qu T.
+#include "nonlinear_solver.h"
+
+#include "../common/errors.h"
+#include "constraint.h"
+#include "rigid_body_modes.h"
+
+#include <cmath>
+#include <dolfinx/fem/assembler.h>
+#include <dolfinx/fem/petsc.h>
+#include <dolfinx/la/petsc.h>
+#include <limits>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+namespace
+{
+std::int32_t owned_size(const la::Vector<double>& v)
+{
+  return v.map()->size_local() * v.bs();
+}
+} // namespace
+
+void NonlinearSolver::create_pressure_unknowns()
+{
+  if (_parts.size() != 1)
+    throw InputError("Taylor-Hood elements are built for a body of one material (one part)");
+  if (_options.linear_solver != "lu" and _options.linear_solver != "gmres-schur")
+    throw InputError("linear solver " + _options.linear_solver
+                     + ": the Taylor-Hood system (displacement and pressure) is solved by "
+                       "MUMPS (linear: lu) or by GMRES with its Schur complement "
+                       "(linear: gmres-schur)");
+  _taylor_hood = true;
+  const MuscleProblem::TaylorHoodForms& f = _problem.th_forms();
+  auto Q = _problem.th_state()->function_space();
+  _bq = std::make_unique<la::Vector<double>>(Q->dofmap()->index_map,
+                                             Q->dofmap()->index_map_bs());
+  _th_blocks = {fem::petsc::create_matrix(*f.jacobian_uq, "aij"),
+                fem::petsc::create_matrix(*f.jacobian_qu, "aij"),
+                fem::petsc::create_matrix(*f.jacobian_qq, "aij")};
+  MPI_Comm comm = _problem.mesh()->comm();
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  VecCreateMPI(comm, n + owned_size(*_bq), PETSC_DETERMINE, &_x_ext);
+  VecDuplicate(_x, &_tmp);
+  // the nest and its assembled copy need the patterns before SNES holds them
+  _problem.u()->x()->scatter_fwd();
+  update_activation();
+  assemble_mixed_jacobian();
+}
+
+void NonlinearSolver::reduce_mixed_blocks(bool first)
+{
+  // T^T A_uq and A_qu T: products of their own, recomputed in place later
+  const MatReuse reuse = first ? MAT_INITIAL_MATRIX : MAT_REUSE_MATRIX;
+  MatTransposeMatMult(_constraint->T(), _th_blocks[0], reuse, PETSC_DEFAULT, &_th_reduced[0]);
+  MatMatMult(_th_blocks[1], _constraint->T(), reuse, PETSC_DEFAULT, &_th_reduced[1]);
+}
+
+void NonlinearSolver::set_mixed_state(Vec x)
+{
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  const PetscScalar* a;
+  VecGetArrayRead(x, &a);
+  // q first: the activation kernels read the fibre stretch at F_bar
+  auto q = _problem.th_state()->x();
+  std::copy(a + n, a + n + owned_size(*q), q->mutable_array().begin());
+  q->scatter_fwd();
+  PetscScalar* xu;
+  VecGetArray(_x, &xu);
+  std::copy(a, a + n, xu);
+  VecRestoreArray(_x, &xu);
+  VecRestoreArrayRead(x, &a);
+  set_state(_x);
+}
+
+void NonlinearSolver::get_mixed_state(Vec x)
+{
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  PetscScalar* a;
+  VecGetArray(x, &a);
+  std::span<const double> u = _problem.u()->x()->array();
+  std::copy(u.begin(), u.begin() + n, a);
+  auto q = _problem.th_state()->x();
+  std::copy(q->array().begin(), q->array().begin() + owned_size(*q), a + n);
+  VecRestoreArray(x, &a);
+  if (_constraint)
+  {
+    _constraint->restrict_to(*_problem.u()->x(), _tmp);
+    const PetscScalar* t;
+    VecGetArrayRead(_tmp, &t);
+    VecGetArray(x, &a);
+    std::copy(t, t + n, a);
+    VecRestoreArray(x, &a);
+    VecRestoreArrayRead(_tmp, &t);
+  }
+}
+
+void NonlinearSolver::mixed_residual(Vec F)
+{
+  displacement_residual();
+  const MuscleProblem::TaylorHoodForms& f = _problem.th_forms();
+  std::span<double> bq = _bq->mutable_array();
+  std::fill(bq.begin(), bq.end(), 0.0);
+  fem::assemble_vector<double>(bq, *f.residual);
+  // q has no Dirichlet conditions; its rows see the displacement's through dR_q/du
+  fem::apply_lifting<double>(bq, {f.jacobian_qu}, {_bcs}, {_problem.u()->x()->array()}, -1.0);
+  _bq->scatter_rev(std::plus<double>());
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  PetscScalar* a;
+  VecGetArray(F, &a);
+  if (_constraint)
+  {
+    MatMultTranspose(_constraint->T(), _F_full, _tmp);
+    const PetscScalar* t;
+    VecGetArrayRead(_tmp, &t);
+    std::copy(t, t + n, a);
+    VecRestoreArrayRead(_tmp, &t);
+  }
+  else
+    std::copy(_b.array().begin(), _b.array().begin() + n, a);
+  std::copy(bq.begin(), bq.begin() + owned_size(*_bq), a + n);
+  VecRestoreArray(F, &a);
+}
+
+void NonlinearSolver::assemble_mixed_jacobian()
+{
+  assemble_full_jacobian();
+  const MuscleProblem::TaylorHoodForms& f = _problem.th_forms();
+  const std::array<const fem::Form<double>*, 3> forms
+      = {f.jacobian_uq.get(), f.jacobian_qu.get(), f.jacobian_qq.get()};
+  bool finite = std::isfinite(_matrix_norm);
+  for (std::size_t i = 0; i < 3; ++i)
+  {
+    Mat M = _th_blocks[i];
+    MatZeroEntries(M);
+    // Dirichlet rows (of A_uq) and columns (of A_qu) zeroed: A carries unit rows there
+    fem::assemble_matrix(la::petsc::Matrix::set_block_fn(M, ADD_VALUES), *forms[i], _bcs);
+    MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY);
+    MatAssemblyEnd(M, MAT_FINAL_ASSEMBLY);
+    PetscReal norm;
+    MatNorm(M, NORM_FROBENIUS, &norm);
+    finite = finite and std::isfinite(norm);
+  }
+  if (!finite)
+  {
+    _matrix_norm = std::numeric_limits<double>::quiet_NaN();
+    return;
+  }
+  const bool first = !_J_nest;
+  Mat A = _A;
+  std::array<Mat, 2> coupling = {_th_blocks[0], _th_blocks[1]};
+  if (_constraint)
+  {
+    reduce(_A_red, !_A_red);
+    reduce_mixed_blocks(first);
+    A = _A_red;
+    coupling = _th_reduced;
+  }
+  if (first)
+  {
+    Mat blocks[4] = {A, coupling[0], coupling[1], _th_blocks[2]};
+    MatCreateNest(_problem.mesh()->comm(), 2, nullptr, 2, nullptr, blocks, &_J_nest);
+  }
+  MatAssemblyBegin(_J_nest, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_J_nest, MAT_FINAL_ASSEMBLY);
+  // MUMPS needs the blocks in one matrix; contact can add nonzeros to A, and a
+  // conversion reusing the old pattern would drop them
+  PetscObjectState state;
+  MatGetNonzeroState(A, &state);
+  if (!_J_mixed)
+    MatConvert(_J_nest, MATAIJ, MAT_INITIAL_MATRIX, &_J_mixed);
+  else if (state != _mixed_state)
+  {
+    Mat fresh;
+    MatConvert(_J_nest, MATAIJ, MAT_INITIAL_MATRIX, &fresh);
+    MatSetOption(_J_mixed, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+    MatCopy(fresh, _J_mixed, DIFFERENT_NONZERO_PATTERN);
+    MatDestroy(&fresh);
+  }
+  else
+    MatConvert(_J_nest, MATAIJ, MAT_REUSE_MATRIX, &_J_mixed);
+  _mixed_state = state;
+  MatNorm(_J_mixed, NORM_INFINITY, &_mixed_norm);
+}
+
+double NonlinearSolver::mixed_floor(SNES snes) const
+{
+  // The q rows carry the stiff penalty (kappa per unit volume), and the degree-1
+  // basis sums to one only to round-off, so R_theta cannot fall below about
+  // eps |A_mixed| |theta| (measured: 1.5e-8 on the cantilever at rest, where
+  // eps |A_mixed| |theta| = 1.5e-8); the displacement rows as in the other
+  // elements, eps |A| |u|.  (theta, not p: p's round-off enters through the
+  // small coupling blocks only.)
+  Vec x;
+  SNESGetSolution(snes, &x);
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  PetscInt size;
+  VecGetLocalSize(x, &size);
+  const PetscScalar* a;
+  VecGetArrayRead(x, &a);
+  double sums[2] = {0, 0};
+  for (PetscInt i = 0; i < n; ++i)
+    sums[0] += a[i] * a[i];
+  for (PetscInt i = n; i < size; i += 2)
+    sums[1] += a[i] * a[i];
+  VecRestoreArrayRead(x, &a);
+  MPI_Allreduce(MPI_IN_PLACE, sums, 2, MPI_DOUBLE, MPI_SUM, _problem.mesh()->comm());
+  return std::numeric_limits<double>::epsilon()
+         * (_matrix_norm * std::sqrt(sums[0]) + _mixed_norm * std::sqrt(sums[1]));
+}
+
+void NonlinearSolver::configure_mixed_split(PC pc)
+{
+  // The displacement block sees the energy at F_bar with theta held: its
+  // stiffness is the deviatoric one, free of kappa, which multigrid handles;
+  // kappa lives in the q block.  Schur complement of q, approximated by
+  // A_qq - A_qu diag(A)^-1 A_uq and factored (q is small: two unknowns per
+  // degree-1 node).
+  PetscInt n, start, end;
+  VecGetLocalSize(_x, &n);
+  VecGetOwnershipRange(_x_ext, &start, &end);
+  MPI_Comm comm = _problem.mesh()->comm();
+  IS u, q;
+  ISCreateStride(comm, n, start, 1, &u);
+  ISCreateStride(comm, end - start - n, start + n, 1, &q);
+  if (!_constraint)
+    ISSetBlockSize(u, 3); // GAMG aggregates nodes
+  _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get(),
+                                      _options.near_null_space == "bodies");
+  PetscObjectCompose(reinterpret_cast<PetscObject>(u), "nearnullspace",
+                     reinterpret_cast<PetscObject>(_near_null_space));
+  PCSetType(pc, PCFIELDSPLIT);
+  PCFieldSplitSetIS(pc, "u", u);
+  PCFieldSplitSetIS(pc, "q", q);
+  ISDestroy(&u);
+  ISDestroy(&q);
+  PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR);
+  PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER);
+  PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr);
+  // the sub-solvers through their option prefixes: -fieldsplit_* given by the
+  // user win
+  for (const auto& [name, value] :
+       std::vector<std::pair<const char*, const char*>>{
+           {"-fieldsplit_u_ksp_type", "preonly"},
+           {"-fieldsplit_u_pc_type", "gamg"},
+           {"-fieldsplit_q_ksp_type", "preonly"},
+           {"-fieldsplit_q_pc_type", "lu"},
+           {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"}})
+  {
+    PetscBool given;
+    PetscOptionsHasName(nullptr, nullptr, name, &given);
+    if (!given)
+      PetscOptionsSetValue(nullptr, name, value);
+  }
+}
+
+} // namespace muscle
