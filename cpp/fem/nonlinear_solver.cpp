@@ -219,6 +219,7 @@ NonlinearSolver::~NonlinearSolver()
   for (Mat& M : _th_reduced)
     MatDestroy(&M);
   MatDestroy(&_J_nest);
+  MatDestroy(&_schur_pre);
   MatDestroy(&_J_mixed);
   for (Vec* v : {&_x_ext, &_rhs, &_sol, &_tmp})
     VecDestroy(v);

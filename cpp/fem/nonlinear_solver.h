@@ -240,6 +240,10 @@ private:
   double _mixed_norm = 0; ///< infinity norm of _J_mixed
   /// gmres-schur on the Taylor-Hood system: PCFIELDSPLIT, u and q
   void configure_mixed_split(PC pc);
+  /// _schur_pre from A_qq: the q block's Schur complement approximated
+  void update_schur_preconditioner();
+  Mat _schur_pre = nullptr;
+  double _shear_modulus = 0; ///< of the law at rest (the Schur approximation's scale)
   /// the coupling blocks under the constraint: T^T A_uq, A_qu T
   void reduce_mixed_blocks(bool first);
   std::array<Mat, 2> _th_reduced{};

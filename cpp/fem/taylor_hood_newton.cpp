@@ -7,6 +7,7 @@
 #include "nonlinear_solver.h"
 
 #include "../common/errors.h"
+#include "../material/material_point.h"
 #include "constraint.h"
 #include "rigid_body_modes.h"
 
@@ -192,6 +193,8 @@ void NonlinearSolver::assemble_mixed_jacobian()
     MatConvert(_J_nest, MATAIJ, MAT_REUSE_MATRIX, &_J_mixed);
   _mixed_state = state;
   MatNorm(_J_mixed, NORM_INFINITY, &_mixed_norm);
+  if (_schur_pre)
+    update_schur_preconditioner();
 }
 
 double NonlinearSolver::mixed_floor(SNES snes) const
@@ -221,6 +224,61 @@ double NonlinearSolver::mixed_floor(SNES snes) const
          * (_matrix_norm * std::sqrt(sums[0]) + _mixed_norm * std::sqrt(sums[1]));
 }
 
+namespace
+{
+double shear_modulus_at_rest(const ParameterSet& parameters, const std::string& kernels)
+{
+  // the isotropic part of the tangent A = dP/dF at F = I: for lambda I x I +
+  // mu (I (x) I + I (x)^T I), 3 A_iJiJ - A_iiJJ = 30 mu
+  const Tangent3 A = MaterialPointModel(parameters, kernels).tangent(point_at(
+      {1, 0, 0, 0, 1, 0, 0, 0, 1}));
+  double s1 = 0, s2 = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+    {
+      s1 += A[27 * i + 9 * j + 3 * i + j];
+      s2 += A[27 * i + 9 * i + 3 * j + j];
+    }
+  const double mu = (3 * s1 - s2) / 30;
+  if (!(mu > 0) or !std::isfinite(mu))
+    throw InputError("the Schur preconditioner of the Taylor-Hood system needs a positive "
+                     "shear modulus at rest; this law's is " + std::to_string(mu)
+                     + ": use linear: lu");
+  return mu;
+}
+} // namespace
+
+void NonlinearSolver::update_schur_preconditioner()
+{
+  // S ~ A_qq - A_qu A^-1 A_uq with A_uq A^-1 A_qu ~ M / mu on p (Taylor-Hood
+  // Stokes: the pressure mass matrix over the shear modulus): A_qq's (theta, p)
+  // block is -M exactly, so the pp block gains its rows over -mu
+  MatCopy(_th_blocks[2], _schur_pre, SAME_NONZERO_PATTERN);
+  PetscInt start, end;
+  MatGetOwnershipRange(_th_blocks[2], &start, &end);
+  for (PetscInt row = start; row < end; row += 2) // theta rows: even
+  {
+    PetscInt n;
+    const PetscInt* cols;
+    const PetscScalar* values;
+    MatGetRow(_th_blocks[2], row, &n, &cols, &values);
+    std::vector<PetscInt> p_cols;
+    std::vector<PetscScalar> p_values;
+    for (PetscInt k = 0; k < n; ++k)
+      if (cols[k] % 2 == 1)
+      {
+        p_cols.push_back(cols[k]);
+        p_values.push_back(values[k] / _shear_modulus);
+      }
+    MatRestoreRow(_th_blocks[2], row, &n, &cols, &values);
+    const PetscInt p_row = row + 1;
+    MatSetValues(_schur_pre, 1, &p_row, p_cols.size(), p_cols.data(), p_values.data(),
+                 ADD_VALUES);
+  }
+  MatAssemblyBegin(_schur_pre, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_schur_pre, MAT_FINAL_ASSEMBLY);
+}
+
 void NonlinearSolver::configure_mixed_split(PC pc)
 {
   // The displacement block sees the energy at F_bar with theta held: its
@@ -248,7 +306,10 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   ISDestroy(&q);
   PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR);
   PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER);
-  PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr);
+  _shear_modulus = shear_modulus_at_rest(_problem.parameters(), _problem.kernel_name());
+  MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
+  update_schur_preconditioner();
+  PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, _schur_pre);
   // the sub-solvers through their option prefixes: -fieldsplit_* given by the
   // user win
   for (const auto& [name, value] :
