@@ -14,7 +14,7 @@ from stiffsoft import ROOT
 SCENE = os.path.join(ROOT, "demos", "scenes", "cantilever_pressure.yaml")
 TAYLOR_HOOD = ["element.degree=2", "element.taylor_hood=true"]
 # element: (scene keys, refinements); Q2 locks mildly, so it needs the finer meshes
-ELEMENTS = {"Q2": (["element.degree=2"], (1, 2, 3, 4)),
+ELEMENTS = {"Q2": (["element.degree=2"], (1, 2, 3)),
             "Q2TH": (TAYLOR_HOOD, (1, 2, 3)),
             "Q2TH-schur": (TAYLOR_HOOD + ["solver.linear=gmres-schur"], (1, 2, 3))}
 
@@ -38,7 +38,7 @@ def phase(args, records):
                               sets + [f"mesh.set.refinement={refinement}",
                                       "output.fields=false", "output.plots=false"],
                               name, {"element": element, "refinement": refinement},
-                              timeout=3600, folder="taylor_hood")
+                              timeout=1500, folder="taylor_hood")
             r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
             r["solver"] = "gmres-schur" if "schur" in element else "lu"
             records.put("taylor_hood", r["name"], r)

@@ -1,0 +1,183 @@
+// The Taylor-Hood element's four Newton blocks are the derivative of its
+// residual [R_u; R_q] in (u, q), q = (theta, p): central differences of the
+// assembled residual along a smooth direction in all of u, theta and p, for
+// every paper model (WKM's stress holds omega_a, GIANT's omega_a comes from its
+// quadrature-point kernel, both read the fibre stretch at F_bar).
+#include "support/finite_differences.h"
+
+#include <fem/muscle_problem.h>
+#include <material/parameters.h>
+
+#include <cmath>
+#include <cstdio>
+#include <dolfinx/fem/assembler.h>
+#include <dolfinx/mesh/generation.h>
+#include <gtest/gtest.h>
+#include <xtensor/xarray.hpp>
+#include <xtensor/xbuilder.hpp>
+
+using namespace muscle;
+using namespace dolfinx;
+
+namespace
+{
+struct Body
+{
+  std::shared_ptr<mesh::Mesh> mesh;
+  std::unique_ptr<MuscleProblem> problem;
+  std::size_t nu = 0, nq = 0; ///< owned + ghost unrolled dofs of u and q
+};
+
+Body make(Model model)
+{
+  Body b;
+  b.mesh = std::make_shared<mesh::Mesh>(mesh::create_box(
+      MPI_COMM_WORLD, {{{0, 0, 0}, {1, 1.2, 1.5}}}, {1, 1, 2}, mesh::CellType::hexahedron,
+      mesh::GhostMode::shared_facet));
+  Discretisation d;
+  d.degree = 2;
+  d.taylor_hood = true;
+  ParameterSet parameters(model);
+  parameters.set("kappa", model == Model("ble") ? 30.0 : 3.0);
+  b.problem = std::make_unique<MuscleProblem>(b.mesh, parameters, d);
+  b.problem->set_fibre({0.3, 0.1, 0.95});
+  b.problem->set_time_factor(0.7);
+  b.nu = b.problem->u()->x()->array().size();
+  b.nq = b.problem->th_state()->x()->array().size();
+  return b;
+}
+
+template <int N>
+void interpolate(fem::Function<double>& f,
+                 const std::function<std::array<double, N>(double, double, double)>& g)
+{
+  f.interpolate(
+      [&](const xt::xtensor<double, 2>& x) -> xt::xarray<double>
+      {
+        xt::xarray<double> v = xt::zeros<double>({std::size_t(N), x.shape(1)});
+        for (std::size_t i = 0; i < x.shape(1); ++i)
+        {
+          const auto y = g(x(0, i), x(1, i), x(2, i));
+          for (int k = 0; k < N; ++k)
+            v(k, i) = y[k];
+        }
+        return v;
+      });
+}
+
+/// [R_u; R_q] at the current state.
+std::vector<double> residual(Body& b)
+{
+  b.problem->update_activation();
+  std::vector<double> r(b.nu + b.nq, 0.0);
+  fem::assemble_vector<double>(std::span(r.data(), b.nu), *b.problem->residual());
+  fem::assemble_vector<double>(std::span(r.data() + b.nu, b.nq),
+                               *b.problem->th_forms().residual);
+  return r;
+}
+
+/// The four blocks as one dense matrix over [u; q] (one rank: every dof).
+std::vector<double> jacobian(Body& b)
+{
+  b.problem->update_activation();
+  const std::size_t n = b.nu + b.nq;
+  std::vector<double> K(n * n, 0.0);
+  const auto& f = b.problem->th_forms();
+  // (form, row block size, row offset, column block size, column offset)
+  const std::vector<std::tuple<const fem::Form<double>*, int, std::size_t, int, std::size_t>>
+      blocks = {{b.problem->jacobian().get(), 3, 0, 3, 0},
+                {f.jacobian_uq.get(), 3, 0, 2, b.nu},
+                {f.jacobian_qu.get(), 2, b.nu, 3, 0},
+                {f.jacobian_qq.get(), 2, b.nu, 2, b.nu}};
+  for (const auto& [form, rbs, roff, cbs, coff] : blocks)
+  {
+    auto add = [&, rbs = rbs, roff = roff, cbs = cbs, coff = coff](
+                   const std::span<const std::int32_t>& rows,
+                   const std::span<const std::int32_t>& cols, const std::span<const double>& v)
+    {
+      const std::size_t nc = cols.size() * cbs;
+      for (std::size_t i = 0; i < rows.size() * rbs; ++i)
+        for (std::size_t j = 0; j < nc; ++j)
+          K[(roff + rows[i / rbs] * rbs + i % rbs) * n + coff + cols[j / cbs] * cbs + j % cbs]
+              += v[i * nc + j];
+      return 0;
+    };
+    fem::assemble_matrix(add, *form,
+                         std::vector<std::shared_ptr<const fem::DirichletBC<double>>>{});
+  }
+  return K;
+}
+
+double max_abs(const std::vector<double>& v)
+{
+  double m = 0;
+  for (double x : v)
+    m = std::max(m, std::abs(x));
+  return m;
+}
+
+class TaylorHoodTangent : public ::testing::TestWithParam<Model>
+{
+};
+} // namespace
+
+TEST_P(TaylorHoodTangent, IsTheDerivativeOfTheResidual)
+{
+  int ranks;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  if (ranks > 1)
+    GTEST_SKIP() << "dense reference on one rank";
+  const Model model = GetParam();
+  Body b = make(model);
+  // a state off equilibrium: bent, theta away from J, p of the penalty's order
+  interpolate<3>(*b.problem->u(), [](double X, double Y, double Z) -> std::array<double, 3>
+                 { return {0.05 * std::sin(2 * X + Z), 0.04 * X * Y - 0.03 * Z * Z,
+                           -0.08 * Z + 0.02 * std::cos(3 * Y)}; });
+  interpolate<2>(*b.problem->th_state(), [](double X, double Y, double Z) -> std::array<double, 2>
+                 { return {0.97 + 0.02 * X * Z - 0.01 * Y, -3.0 + 2.0 * Y - X * Z}; });
+  const std::vector<double> K = jacobian(b);
+  std::vector<double> x0(b.problem->u()->x()->array().begin(),
+                         b.problem->u()->x()->array().end());
+  x0.insert(x0.end(), b.problem->th_state()->x()->array().begin(),
+            b.problem->th_state()->x()->array().end());
+
+  Body d = make(model);
+  interpolate<3>(*d.problem->u(), [](double X, double Y, double Z) -> std::array<double, 3>
+                 { return {0.3 * Y * Z, std::sin(X - Z), 0.5 * X * X - Y}; });
+  interpolate<2>(*d.problem->th_state(), [](double X, double Y, double Z) -> std::array<double, 2>
+                 { return {0.2 * X - 0.1 * Z * Y, 1.0 + X + 0.5 * Z}; });
+  std::vector<double> delta(d.problem->u()->x()->array().begin(),
+                            d.problem->u()->x()->array().end());
+  delta.insert(delta.end(), d.problem->th_state()->x()->array().begin(),
+               d.problem->th_state()->x()->array().end());
+
+  auto residual_at = [&](double s)
+  {
+    std::span<double> u = b.problem->u()->x()->mutable_array();
+    std::span<double> q = b.problem->th_state()->x()->mutable_array();
+    for (std::size_t i = 0; i < b.nu; ++i)
+      u[i] = x0[i] + s * delta[i];
+    for (std::size_t i = 0; i < b.nq; ++i)
+      q[i] = x0[b.nu + i] + s * delta[b.nu + i];
+    return residual(b);
+  };
+  const std::vector<double> fd = muscle::testing::central_vector(residual_at, 1e-6);
+  const std::size_t n = b.nu + b.nq;
+  std::vector<double> diff(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    double Kd = 0;
+    for (std::size_t j = 0; j < n; ++j)
+      Kd += K[i * n + j] * delta[j];
+    diff[i] = Kd - fd[i];
+  }
+  EXPECT_GT(max_abs(fd), 0);
+  EXPECT_LT(max_abs(diff), 2e-6 * max_abs(fd)) << to_string(model);
+  std::printf("%s: |K d - FD| / |FD| = %.2e\n", to_string(model).c_str(),
+              max_abs(diff) / max_abs(fd));
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, TaylorHoodTangent,
+                         ::testing::Values(Model("combi"), Model("ble"), Model("wkm"),
+                                           Model("giant")),
+                         [](const auto& info) { return to_string(info.param); });
