@@ -16,7 +16,7 @@ TAYLOR_HOOD = ["element.degree=2", "element.taylor_hood=true"]
 # element: (scene keys, refinements); Q2 locks mildly, so it needs the finer meshes
 ELEMENTS = {"Q2": (["element.degree=2"], (1, 2, 3)),
             "Q2TH": (TAYLOR_HOOD, (1, 2, 3)),
-            "Q2TH-schur": (TAYLOR_HOOD + ["solver.linear=gmres-schur"], (1, 2, 3))}
+            "Q2TH-schur": (TAYLOR_HOOD + ["solver.linear=gmres-schur"], (1, 2))}
 
 
 def tip(out):
