@@ -10,8 +10,9 @@ eliminates it cell by cell (cpp/fem/fbar_element.cpp), which keeps the tangent e
     K = K_uu + K_u0 g^T + g K_0u + K_00 g g^T + r_0 G,
 
 where (R_u, r_0) and the 25x25 [K_uu K_u0; K_0u K_00] come from one mixed kernel on
-(u, J0) ("fbar_residual", "fbar_jacobian"), and g = dJ0/du, G = d2J0/du2 from kernels on
-the centre point ("fbar_gradient", "fbar_hessian", "fbar_centre").
+(u, J0) ("fbar_residual", "fbar_jacobian"; r_0 alone from "fbar_r0"), and g = dJ0/du,
+G = d2J0/du2 from kernels on the centre point ("fbar_gradient", "fbar_hessian",
+"fbar_centre").
 
 With J0 = theta kept as a cell unknown and its constraint J0(u) = theta enforced by
 a multiplier p (the three-field form, cpp/fem/fbar_unknowns.h), the same kernels give
@@ -29,6 +30,7 @@ Exported besides:
 
 import ufl
 from ffcx.element_interface import create_quadrature
+from ufl.algorithms import expand_derivatives
 from ufl import (Coefficient, Constant, FiniteElement, Identity, MixedElement, TestFunction,
                  TrialFunction, VectorElement, as_vector, derivative, det, dx, grad, inner,
                  variable)
@@ -109,6 +111,9 @@ def build_fbar_variant(law, active, cell, degree, qdeg):
         jacobian = derivative(residual, state, trial)
     names.export(residual, "fbar_residual")
     names.export(jacobian, "fbar_jacobian")
+    # r_0 = R's J0 entry alone: the Jacobian kernels need it besides K, not R_u
+    J0_direction = as_vector([0.0] * 3 + [1.0])
+    names.export(ufl.replace(expand_derivatives(residual), {test: J0_direction}), "fbar_r0")
 
     # J0 = det F at the centre: the one-point rule over |det dX/dxi| gives the point value
     v, du = TestFunction(V), TrialFunction(V)
