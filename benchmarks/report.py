@@ -388,6 +388,8 @@ def assembly_after_flag_table(res):
 
 
 TARGETS = {"ble": 1.5, "combi": 1.5, "wkm": 2.0, "giant": 2.0}
+# the F-bar element (Q1F) of every model against plain-Q1 Neo-Hooke (issue 18)
+FBAR_TARGET = 2.5
 
 
 @table
@@ -396,7 +398,7 @@ def instruction_table(res):
     for element, data in res.raw["instructions"].items():
         rows = []
         for m, c in data["counts"].items():
-            target = TARGETS.get(m)
+            target = TARGETS.get(m) and (FBAR_TARGET if element == "Q1F" else TARGETS[m])
             rows.append([m, fmt(c["jacobian"] / 1e6, ".1f"), fmt(c["residual"] / 1e6, ".1f"),
                          fmt(c["kernel"] / 1e6, ".1f"), fmt(c["jacobian_ratio"], ".2f"),
                          fmt(c["residual_ratio"], ".2f"), fmt(c["newton_ratio"], ".2f"),

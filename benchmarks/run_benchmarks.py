@@ -319,6 +319,11 @@ def adopt(name, out, base):
     return record
 
 
+# the benchmark's elements: Q1F is the muscle models on F-bar, Neo-Hooke on plain Q1
+ELEMENT_CELLS = {"Q1": ("hex", 1), "Q2": ("hex", 2), "P1": ("tet", 1), "P2": ("tet", 2),
+                 "Q1F": ("hex", 1)}
+
+
 def element_name(cell, degree, fbar=False, taylor_hood=False):
     """Q1, Q1F (F-bar), Q2, Q2TH (Taylor-Hood), P1, ..."""
     return ({"hex": "Q", "tet": "P"}[cell] + str(degree) + ("F" if fbar else "")
@@ -331,8 +336,7 @@ def element_name(cell, degree, fbar=False, taylor_hood=False):
 def phase_assembly(args, records):
     binary = os.path.join(args.build, "bench-assembly")
     for element in args.assembly_elements:
-        cell, degree = {"Q1": ("hex", 1), "Q2": ("hex", 2), "P1": ("tet", 1),
-                        "P2": ("tet", 2), "Q1F": ("hex", 1)}[element]
+        cell, degree = ELEMENT_CELLS[element]
         out = os.path.join(args.work, f"assembly_{element}_n{args.assembly_n}.json")
         if args.reuse and os.path.exists(out):
             with open(out) as f:
@@ -358,8 +362,7 @@ def phase_instructions(args, records):
     import glob
     binary = os.path.join(args.build, "bench-assembly")
     for element in args.instruction_elements:
-        cell, degree = {"Q1": ("hex", 1), "Q2": ("hex", 2), "P1": ("tet", 1),
-                        "P2": ("tet", 2)}[element]
+        cell, degree = ELEMENT_CELLS[element]
         if args.reuse and element in records.data.get("instructions", {}):
             print(f"  reuse instructions {element}")
             continue
@@ -370,7 +373,7 @@ def phase_instructions(args, records):
         command = ["valgrind", "--tool=callgrind", "--instr-atstart=no",
                    f"--callgrind-out-file={folder}/callgrind.out.%p", binary,
                    "--refinement", "1", "--cell", cell, "--degree", str(degree),
-                   "--repetitions", "1"]
+                   "--repetitions", "1"] + (["--fbar"] if element == "Q1F" else [])
         print("  " + " ".join(command), flush=True)
         start = time.time()
         result = subprocess.run(command, capture_output=True, text=True)
@@ -435,8 +438,7 @@ def collect(args):
         folder = os.path.join(args.work, f"callgrind_{element}")
         table = parse_callgrind(folder) if os.path.isdir(folder) else None
         if table:
-            cell, degree = {"Q1": ("hex", 1), "Q2": ("hex", 2), "P1": ("tet", 1),
-                            "P2": ("tet", 2)}[element]
+            cell, degree = ELEMENT_CELLS[element]
             data["instructions"][element] = {"cell": cell, "degree": degree, "refinement": 1,
                                              "counts": table}
     for path in sorted(glob.glob(os.path.join(args.work, "assembly_*_n[2-9].json"))):
@@ -1103,7 +1105,7 @@ def main():
     parser.add_argument("--assembly-n", type=int, default=1)
     parser.add_argument("--assembly-elements", nargs="+",
                         default=["Q1", "Q2", "P1", "P2", "Q1F"])
-    parser.add_argument("--instruction-elements", nargs="+", default=["Q1", "Q2"])
+    parser.add_argument("--instruction-elements", nargs="+", default=["Q1", "Q2", "Q1F"])
     parser.add_argument("--e2e-models", nargs="+", default=["combi"])
     parser.add_argument("--e2e-refinements", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--e2e-dt", type=float, default=0.05)

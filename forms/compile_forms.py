@@ -170,7 +170,7 @@ def registry_source(laws, sets, extra):
         n = variants.variant_name(*v)
         if v[5] == "fbar":
             kernels = ", ".join(f"form_{n}_fbar_{k}" for k in
-                                ("residual", "jacobian", "centre", "gradient", "hessian"))
+                                ("residual", "jacobian", "r0", "centre", "gradient", "hessian"))
             lines.append(f"const muscle::forms::FbarForms fbar_{n} = {{{kernels}, "
                          f"expression_{n}_fbar_centre_dilatation}};")
         elif v[5] == "th":

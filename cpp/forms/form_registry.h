@@ -48,6 +48,7 @@ struct FbarForms
 {
   ufcx_form* residual;   ///< (R_u, r_0) of the mixed element
   ufcx_form* jacobian;   ///< 25 x 25 on (u, J0)
+  ufcx_form* r0;         ///< functional: r_0 alone (what the Jacobian needs of R)
   ufcx_form* centre;     ///< functional: J0 of the cell
   ufcx_form* gradient;   ///< g = dJ0/du
   ufcx_form* hessian;    ///< G = d2J0/du2

@@ -10,8 +10,9 @@ eliminates it cell by cell (cpp/fem/fbar_element.cpp), which keeps the tangent e
     K = K_uu + K_u0 g^T + g K_0u + K_00 g g^T + r_0 G,
 
 where (R_u, r_0) and the 25x25 [K_uu K_u0; K_0u K_00] come from one mixed kernel on
-(u, J0) ("fbar_residual", "fbar_jacobian"), and g = dJ0/du, G = d2J0/du2 from kernels on
-the centre point ("fbar_gradient", "fbar_hessian", "fbar_centre").
+(u, J0) ("fbar_residual", "fbar_jacobian"; r_0 alone from "fbar_r0"), and g = dJ0/du,
+G = d2J0/du2 from kernels on the centre point ("fbar_gradient", "fbar_hessian",
+"fbar_centre").
 
 With J0 = theta kept as a cell unknown and its constraint J0(u) = theta enforced by
 a multiplier p (the three-field form, cpp/fem/fbar_unknowns.h), the same kernels give
@@ -29,11 +30,13 @@ Exported besides:
 
 import ufl
 from ffcx.element_interface import create_quadrature
+from ufl.algorithms import expand_derivatives
 from ufl import (Coefficient, Constant, FiniteElement, Identity, MixedElement, TestFunction,
                  TrialFunction, VectorElement, as_vector, derivative, det, dx, grad, inner,
                  variable)
 
-from .kinematics import fibre_cauchy_stress, von_mises_stress, von_mises_strain
+from .invariant_chain import chain_forms
+from .kinematics import Kinematics, fibre_cauchy_stress, von_mises_stress, von_mises_strain
 from .variants import CELLS, _Names, activation_inputs, constants, stress_and_energy
 
 # F-bar exists for Q1 hexahedra (every law): Q2 does not lock, and on tetrahedra a centre
@@ -41,18 +44,34 @@ from .variants import CELLS, _Names, activation_inputs, constants, stress_and_en
 FBAR_ELEMENTS = {("hex", 1)}
 
 
-def fbar_displacement_gradient(H, J0):
-    """F_bar - I for F = I + H.
+def fbar_scale(J0, J):
+    """(s, s - 1) of F_bar = s F, s = (J0/J)^(1/3).
 
-    s - 1 = (J0/J)^(1/3) - 1 is formed from J0 - J, so the reference state (H = 0,
-    J0 = 1) gives H_bar = H to the bit (the BLE passive switch at fibre stretch 1).
+    s - 1 is formed from J0 - J, so the reference state (H = 0, J0 = 1) gives s - 1 = 0
+    to the bit (the BLE passive switch at fibre stretch 1).
     """
-    I = Identity(3)
-    J = det(I + H)
     ratio_m1 = (J0 - J) / J
     s = (1 + ratio_m1)**(1.0 / 3.0)
-    s_m1 = ratio_m1 / (s * s + s + 1)
+    return s, ratio_m1 / (s * s + s + 1)
+
+
+def fbar_displacement_gradient(H, J0):
+    """F_bar - I for F = I + H."""
+    I = Identity(3)
+    _, s_m1 = fbar_scale(J0, det(I + H))
     return H + s_m1 * (I + H)
+
+
+def fbar_kinematics(H, J0, m):
+    """Kinematics of F_bar for the chain rule (invariant_chain.py): its invariants are
+    F's scaled by s (Kinematics.scale), so the variables are F's invariants and J0, and
+    no argument passes through the cube root more than once."""
+    kin = Kinematics(H, m, invariant_variables=True)
+    J0_var = variable(J0)
+    kin.variables.append((J0_var, J0))
+    s, s_m1 = fbar_scale(J0_var, kin.J)
+    kin.scale(s, s_m1, J0_var)
+    return kin
 
 
 def _centre_measure():
@@ -81,11 +100,20 @@ def build_fbar_variant(law, active, cell, degree, qdeg):
 
     # the mixed element on (u, J0)
     H_bar = fbar_displacement_gradient(grad(u_s), J0_s)
-    P, _, _, _, _ = stress_and_energy(law, lambda: variable(H_bar), fibre, p, level, taylor)
     test, trial = TestFunction(W), TrialFunction(W)
-    residual = inner(P, derivative(H_bar, state, test)) * measure
+    chained = chain_forms(law, lambda: fbar_kinematics(grad(u_s), J0_s, fibre), p, level,
+                          taylor, state, test, trial)
+    if chained is not None:
+        residual, jacobian = chained[0] * measure, chained[1] * measure
+    else:
+        P, _, _, _, _ = stress_and_energy(law, lambda: variable(H_bar), fibre, p, level, taylor)
+        residual = inner(P, derivative(H_bar, state, test)) * measure
+        jacobian = derivative(residual, state, trial)
     names.export(residual, "fbar_residual")
-    names.export(derivative(residual, state, trial), "fbar_jacobian")
+    names.export(jacobian, "fbar_jacobian")
+    # r_0 = R's J0 entry alone: the Jacobian kernels need it besides K, not R_u
+    J0_direction = as_vector([0.0] * 3 + [1.0])
+    names.export(ufl.replace(expand_derivatives(residual), {test: J0_direction}), "fbar_r0")
 
     # J0 = det F at the centre: the one-point rule over |det dX/dxi| gives the point value
     v, du = TestFunction(V), TrialFunction(V)

@@ -25,7 +25,8 @@ from ffcx.element_interface import create_quadrature
 from ufl import (Coefficient, FiniteElement, TestFunction, TrialFunction, VectorElement, as_vector,
                  derivative, det, dx, grad, inner, variable)
 
-from .fbar import fbar_displacement_gradient
+from .fbar import fbar_displacement_gradient, fbar_kinematics
+from .invariant_chain import chain_forms
 from .kinematics import fibre_cauchy_stress, von_mises_stress, von_mises_strain
 from .variants import CELLS, _Names, activation_inputs, constants, stress_and_energy
 
@@ -55,17 +56,34 @@ def build_taylor_hood_variant(law, active, cell, degree, qdeg):
     J = det(ufl.Identity(3) + grad(u))
     v, du = TestFunction(V), TrialFunction(V)
     w, dq = TestFunction(Q), TrialFunction(Q)
-    # the stress P = dpsi/dH_bar (WKM: omega_a held, as in every variant) through the chain
-    # rule of H_bar, the multiplier's term by differentiation of p (J - theta)
+    fields = {"u": (u, v, du), "q": (q, w, dq)}
+    # the multiplier's term p (J - theta) is small: UFL differentiates it
     constraint = pressure * (J - theta)
-    residual_u = (inner(P, derivative(H_bar, u, v)) + derivative(constraint, u, v)) * measure
-    residual_q = (inner(P, derivative(H_bar, q, w)) + derivative(constraint, q, w)) * measure
+
+    def block(row, column=None):
+        """(residual of `row`, tangent of row and column): psi through F_bar's invariants
+        (invariant_chain.py, F-bar's scaled invariants with theta for J0) when the energy
+        allows, else P = dpsi/dH_bar (WKM: omega_a held, as in every variant) through
+        the chain rule of H_bar."""
+        state, test, _ = fields[row]
+        trial_state, _, trial = fields[column or row]
+        chained = chain_forms(law, lambda: fbar_kinematics(grad(u), theta, fibre), p, level,
+                              taylor, state, test, trial, trial_state=trial_state)
+        if chained is None:
+            r = inner(P, derivative(H_bar, state, test))
+            chained = r, derivative(r, trial_state, trial)
+        r_c = derivative(constraint, state, test)
+        return ((chained[0] + r_c) * measure,
+                (chained[1] + derivative(r_c, trial_state, trial)) * measure)
+
+    residual_u, jacobian_uu = block("u")
+    residual_q, jacobian_qq = block("q")
     names.export(residual_u, "residual")
-    names.export(derivative(residual_u, u, du), "jacobian")
+    names.export(jacobian_uu, "jacobian")
     names.export(residual_q, "th_residual")
-    names.export(derivative(residual_u, q, dq), "th_jacobian_uq")
-    names.export(derivative(residual_q, u, du), "th_jacobian_qu")
-    names.export(derivative(residual_q, q, dq), "th_jacobian_qq")
+    names.export(block("u", "q")[1], "th_jacobian_uq")
+    names.export(block("q", "u")[1], "th_jacobian_qu")
+    names.export(jacobian_qq, "th_jacobian_qq")
     names.export(J * measure, "volume")
     names.export(psi * measure, "energy")
 
