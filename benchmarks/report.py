@@ -133,6 +133,11 @@ RUNS = {
     "q2_iso": "combi_isometric_hex2_n1_dt0.05_lu_np1",
     "q2_free": "combi_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
     "q2_iso_k100": "combi_isometric_hex2_n1_dt0.05_lu_np1_kappa100",
+    # Taylor-Hood Q2-Q1 (map-taylor-hood): MUMPS and the Schur field split
+    "th_iso": "combi_isometric_hex2th_n1_dt0.05_lu_np1",
+    "th_free": "combi_free_hex2th_n1_dt0.05_lu_np1",
+    "th_iso_schur": "combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1",
+    "th_free_schur": "combi_free_hex2th_n1_dt0.05_gmres-schur_np1",
     # F-bar Q1
     "fb_iso": "combi_isometric_hex1fbar_n1_dt0.05_lu_np1",
     "fb_free": "combi_free_hex1fbar_n1_dt0.05_lu_np1",

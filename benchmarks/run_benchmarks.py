@@ -31,6 +31,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             penalty split (gmres-schur), n = 1 on one rank and n = 2 on two
             (--kappa-refinements, --kappa-candidates, --kappas)
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
+  taylor-hood  the bending cantilever, Q2 against Taylor-Hood (MUMPS, Schur split) by
+            refinement (taylor_hood.py); map-taylor-hood: Taylor-Hood on the map, n = 1
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
   report    benchmarks/results.json and docs/images/speed_accuracy*.png from

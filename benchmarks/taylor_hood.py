@@ -38,7 +38,7 @@ def phase(args, records):
                               sets + [f"mesh.set.refinement={refinement}",
                                       "output.fields=false", "output.plots=false"],
                               name, {"element": element, "refinement": refinement},
-                              timeout=1500, folder="taylor_hood")
+                              timeout=2400, folder="taylor_hood")
             r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
             r["solver"] = "gmres-schur" if "schur" in element else "lu"
             records.put("taylor_hood", r["name"], r)
