@@ -129,6 +129,7 @@ RUNS = {
     "kp2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
     "kp2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000",
     "kp4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
+    "kp4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
     # Q2: the reference of the map, its quadrature variants, kappa = 100
     "q2_iso": "combi_isometric_hex2_n1_dt0.05_lu_np1",
     "q2_free": "combi_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
