@@ -35,7 +35,7 @@ from ufl import (Coefficient, Constant, FiniteElement, Identity, MixedElement, T
                  TrialFunction, VectorElement, as_vector, derivative, det, dx, grad, inner,
                  variable)
 
-from .invariant_chain import chain_forms
+from .invariant_chain import energy_forms
 from .kinematics import Kinematics, fibre_cauchy_stress, von_mises_stress, von_mises_strain
 from .variants import CELLS, _Names, activation_inputs, constants, stress_and_energy
 
@@ -101,14 +101,10 @@ def build_fbar_variant(law, active, cell, degree, qdeg):
     # the mixed element on (u, J0)
     H_bar = fbar_displacement_gradient(grad(u_s), J0_s)
     test, trial = TestFunction(W), TrialFunction(W)
-    chained = chain_forms(law, lambda: fbar_kinematics(grad(u_s), J0_s, fibre), p, level,
-                          taylor, state, test, trial)
-    if chained is not None:
-        residual, jacobian = chained[0] * measure, chained[1] * measure
-    else:
-        P, _, _, _, _ = stress_and_energy(law, lambda: variable(H_bar), fibre, p, level, taylor)
-        residual = inner(P, derivative(H_bar, state, test)) * measure
-        jacobian = derivative(residual, state, trial)
+    P, _, _, _, _ = stress_and_energy(law, lambda: variable(H_bar), fibre, p, level, taylor)
+    residual, jacobian = energy_forms(law, lambda: fbar_kinematics(grad(u_s), J0_s, fibre), P,
+                                      H_bar, p, level, taylor, state, test, trial)
+    residual, jacobian = residual * measure, jacobian * measure
     names.export(residual, "fbar_residual")
     names.export(jacobian, "fbar_jacobian")
     # r_0 = R's J0 entry alone: the Jacobian kernels need it besides K, not R_u

@@ -21,7 +21,7 @@ their invariants are left out of R's sum (the stress does not see them) and kept
 inner sum (the tangent does).
 """
 
-from ufl import derivative, diff
+from ufl import derivative, diff, inner
 from ufl.constantvalue import Zero
 
 from .activation import taylor_omega
@@ -75,3 +75,15 @@ def chain_forms(law, kinematics, p, level, taylor, state, test, trial, part=None
             inner_sum += psi_kl * derivative(expr_l, trial_state, trial)
         tangent += inner_sum * dI_k + psi_k * derivative(dI_k, trial_state, trial)
     return residual, tangent
+
+
+def energy_forms(law, kinematics, P, H, p, level, taylor, state, test, trial, part=None,
+                 trial_state=None):
+    """chain_forms, or for an energy that reads a tensor the stress P = dpsi/dH through
+    the chain rule of the displacement gradient H(state): (P : dH[test], its derivative)."""
+    chained = chain_forms(law, kinematics, p, level, taylor, state, test, trial, part,
+                          trial_state)
+    if chained is not None:
+        return chained
+    residual = inner(P, derivative(H, state, test))
+    return residual, derivative(residual, state if trial_state is None else trial_state, trial)

@@ -23,10 +23,10 @@ quadrature point (plain Q2 locks mildly in bending under kappa = 1000; BENCHMARK
 import ufl
 from ffcx.element_interface import create_quadrature
 from ufl import (Coefficient, FiniteElement, TestFunction, TrialFunction, VectorElement, as_vector,
-                 derivative, det, dx, grad, inner, variable)
+                 derivative, det, dx, grad, variable)
 
 from .fbar import fbar_displacement_gradient, fbar_kinematics
-from .invariant_chain import chain_forms
+from .invariant_chain import energy_forms
 from .kinematics import fibre_cauchy_stress, von_mises_stress, von_mises_strain
 from .variants import CELLS, _Names, activation_inputs, constants, stress_and_energy
 
@@ -67,11 +67,8 @@ def build_taylor_hood_variant(law, active, cell, degree, qdeg):
         the chain rule of H_bar."""
         state, test, _ = fields[row]
         trial_state, _, trial = fields[column or row]
-        chained = chain_forms(law, lambda: fbar_kinematics(grad(u), theta, fibre), p, level,
-                              taylor, state, test, trial, trial_state=trial_state)
-        if chained is None:
-            r = inner(P, derivative(H_bar, state, test))
-            chained = r, derivative(r, trial_state, trial)
+        chained = energy_forms(law, lambda: fbar_kinematics(grad(u), theta, fibre), P, H_bar,
+                               p, level, taylor, state, test, trial, trial_state=trial_state)
         r_c = derivative(constraint, state, test)
         return ((chained[0] + r_c) * measure,
                 (chained[1] + derivative(r_c, trial_state, trial)) * measure)

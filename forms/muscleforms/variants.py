@@ -16,10 +16,10 @@ A kernel set is (law, active): the law's own kernels, or its passive counterpart
 import ufl
 from ffcx.element_interface import create_quadrature
 from ufl import (Coefficient, Constant, FiniteElement, TensorElement, TestFunction, TrialFunction,
-                 VectorElement, as_vector, derivative, diff, dx, grad, inner, variable)
+                 VectorElement, as_vector, diff, dx, grad, inner, variable)
 
 from .activation import TAYLOR_COEFFICIENTS, taylor_omega
-from .invariant_chain import chain_forms
+from .invariant_chain import energy_forms
 from .kinematics import Kinematics, fibre_cauchy_stress, von_mises_stress, von_mises_strain
 from .law import Drive
 
@@ -127,12 +127,8 @@ def build_fe_variant(law, active, cell, degree, qdeg, vqdeg=None):
 
     def forms(part=None, P_part=P):
         """(residual, tangent) integrands: through the invariants when the energy allows."""
-        chained = chain_forms(law, lambda: Kinematics(grad(u), fibre, invariant_variables=True),
-                              p, level, taylor, u, v, du, part)
-        if chained is not None:
-            return chained
-        r = inner(P_part, grad(v))
-        return r, derivative(r, u, du)
+        return energy_forms(law, lambda: Kinematics(grad(u), fibre, invariant_variables=True),
+                            P_part, grad(u), p, level, taylor, u, v, du, part)
 
     if vqdeg in (None, qdeg):
         residual, jacobian = forms()
