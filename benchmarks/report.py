@@ -123,13 +123,34 @@ RUNS = {
     "kp_gamg_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000",
     "kp_sor_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000"
                     "_mg_levels_pc_typesor_mg_levels_pc_sor_diagonal_shift1e-8",
-    "kp_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100",
-    "kp_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000",
-    "kp_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000",
-    "kp2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
-    "kp2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000",
-    "kp4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
-    "kp4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
+    "kp_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
+                   "_penalty_split_factorizationfull",
+    "kp_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
+                    "_penalty_split_factorizationfull",
+    "kp_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
+                     "_penalty_split_factorizationfull",
+    "kp2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
+                     "_penalty_split_factorizationfull",
+    "kp2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
+                      "_penalty_split_factorizationfull",
+    "kp4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
+                     "_penalty_split_factorizationfull",
+    "kp4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
+                          "_penalty_split_factorizationfull",
+    "kpl_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
+                    "_penalty_split_factorizationlower",
+    "kpl_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
+                     "_penalty_split_factorizationlower",
+    "kpl_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
+                      "_penalty_split_factorizationlower",
+    "kpl2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
+                      "_penalty_split_factorizationlower",
+    "kpl2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
+                       "_penalty_split_factorizationlower",
+    "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
+                      "_penalty_split_factorizationlower",
+    "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
+                           "_penalty_split_factorizationlower",
     # Q2: the reference of the map, its quadrature variants, kappa = 100
     "q2_iso": "combi_isometric_hex2_n1_dt0.05_lu_np1",
     "q2_free": "combi_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
@@ -529,7 +550,8 @@ def fbar_penalty_table(res):
 SOLVER_NAMES = {"lu": "MUMPS", "gmres-gamg": "GAMG", "gmres-hypre": "BoomerAMG"}
 
 
-KAPPA_CANDIDATES = ("MUMPS", "GAMG", "GAMG, SOR levels", "BoomerAMG, systems", "penalty split")
+KAPPA_CANDIDATES = ("MUMPS", "GAMG", "GAMG, SOR levels", "BoomerAMG, systems", "penalty split",
+                    "penalty split, lower")
 
 
 def kappa_of(r):
@@ -668,14 +690,18 @@ def richardson(coarse, medium, fine, ratio=2.0, safety=1.25):
 
 @table
 def richardson_table(res):
-    """F-bar n = 1, 2, 4 at kappa = 100 (and 1000 where n = 4 exists): Richardson."""
+    """F-bar n = 1, 2, 4 at kappa = 100 and 1000: Richardson."""
     rows = []
     for label, names, value in (
             ("F33 [mN], kappa = 100", ("fb_iso_k100", "fb2_iso_k100", "fb4_iso_k100"),
              lambda r: r["F33"]),
             ("shortening 1 - epsilon, kappa = 100",
              ("fb_free_k100", "fb2_free_k100_gamg_np2", "fb4_free_k100"),
-             lambda r: 1 - r["epsilon"])):
+             lambda r: 1 - r["epsilon"]),
+            ("F33 [mN], kappa = 1000", ("fb_iso", "fb2_iso", "kpl4_split_k1000"),
+             lambda r: r["F33"]),
+            ("shortening 1 - epsilon, kappa = 1000",
+             ("fb_free", "fb2_free", "kpl4_split_free_k1000"), lambda r: 1 - r["epsilon"])):
         v = [value(res.run(RUNS[n])) for n in names]
         x = richardson(*v)
         rows.append([label] + [fmt(y, ",.6g") for y in v]

@@ -4,6 +4,7 @@
 // iteration must converge quadratically -- which fails if the condensation,
 // the recovery of dtheta, dp or the extended Jacobian is off -- and it must
 // need fewer iterations under the preset penalty, the reason it exists.
+#include <common/errors.h>
 #include <fem/boundary.h>
 #include <fem/muscle_problem.h>
 #include <fem/nonlinear_solver.h>
@@ -12,6 +13,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 #include <dolfinx/mesh/generation.h>
 #include <dolfinx/mesh/utils.h>
 #include <gtest/gtest.h>
@@ -315,15 +317,17 @@ TEST(FbarNewtonMultigrid, FreeBlockKeepsTheRigidBodyModes)
 // of each cell's penalty, the rest goes through the saddle form's diagonal Schur
 // complement.  At kappa = 10^4 GAMG on the whole matrix fails on this block (GMRES
 // reaches its cap; 31 Krylov iterations per Newton iteration at kappa = 100); the split
-// must converge there too -- 181 (lifted) and 113 (free) per Newton iteration, 30 at
-// kappa = 100 -- and reach the direct solver's state.
-class PenaltySplit : public ::testing::TestWithParam<bool>
+// must converge there too -- 181 (lifted) and 113 (free) per Newton iteration with the full
+// factorisation, 30 at kappa = 100 -- and reach the direct solver's state, whichever block
+// factorisation (-penalty_split_factorization) preconditions it.
+class PenaltySplit : public ::testing::TestWithParam<std::tuple<bool, const char*>>
 {
 };
 
 TEST_P(PenaltySplit, ConvergesUnderTheStiffPenaltyToTheDirectSolversState)
 {
-  const bool constrained = GetParam();
+  const auto [constrained, factorization] = GetParam();
+  PetscOptionsSetValue(nullptr, "-penalty_split_factorization", factorization);
   for (const double kappa : {100.0, 10000.0})
   {
     Block block = make_block(Model("combi"), constrained, kappa);
@@ -344,6 +348,33 @@ TEST_P(PenaltySplit, ConvergesUnderTheStiffPenaltyToTheDirectSolversState)
                                 problem.u()->x()->array().end());
     EXPECT_LT(max_abs_diff(u, lu.u), 1e-7 * max_abs(lu.u)) << "kappa " << kappa;
   }
+  PetscOptionsClearValue(nullptr, "-penalty_split_factorization");
 }
 
-INSTANTIATE_TEST_SUITE_P(LiftedAndFree, PenaltySplit, ::testing::Values(false, true));
+INSTANTIATE_TEST_SUITE_P(LiftedAndFree, PenaltySplit,
+                         ::testing::Combine(::testing::Values(false, true),
+                                            ::testing::Values("lower", "upper", "full")),
+                         [](const auto& info)
+                         {
+                           return std::string(std::get<0>(info.param) ? "free_" : "lifted_")
+                                  + std::get<1>(info.param);
+                         });
+
+TEST(PenaltySplitInput, AnUnknownFactorisationIsAnInputError)
+{
+  PetscOptionsSetValue(nullptr, "-penalty_split_factorization", "diagonal");
+  Block block = make_block(Model("combi"), false, 1000.0);
+  NewtonOptions options = multigrid_options();
+  options.linear_solver = "gmres-schur";
+  try
+  {
+    NonlinearSolver solver(*block.problem, block.bcs, block.constraint, options);
+    ADD_FAILURE() << "no error for -penalty_split_factorization diagonal";
+  }
+  catch (const InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("allowed are full, lower, upper"), std::string::npos)
+        << e.what();
+  }
+  PetscOptionsClearValue(nullptr, "-penalty_split_factorization");
+}

@@ -274,6 +274,9 @@ private:
   /// per part and cell: the removed penalty (1 - s_c) K00_c, and sum_j g_j^2 / A_s,jj
   std::vector<std::vector<double>> _split, _schur_h;
   PetscReal _split_ratio = 1; ///< kept penalty / rest of the diagonal (-penalty_split_ratio)
+  /// the block factorisation applied (-penalty_split_factorization): "lower" or "upper"
+  /// (one V-cycle per Krylov iteration), "full" (two)
+  std::string _split_factorization = "lower";
 
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh

@@ -8,9 +8,11 @@
 //     [ A_s    B^T ] [du]   [b]
 //     [ D_r B  -I  ] [q ] = [0],     q per cell,
 //
-// which GMRES solves preconditioned by the block factorisation with one V-cycle for
-// each A_s^-1 and the Schur complement I + D_r B A_s^-1 B^T by its diagonal,
-// I + D_r diag_c(sum_j g_cj^2 / A_s,jj).  Dirichlet rows of B^T are zero: K keeps
+// which GMRES solves preconditioned by a block factorisation, A_s^-1 by one V-cycle and
+// the Schur complement I + D_r B A_s^-1 B^T by its diagonal,
+// I + D_r diag_c(sum_j g_cj^2 / A_s,jj).  The lower triangular factor (the default) needs
+// one V-cycle per Krylov iteration, the full factorisation two; measured on the fusiform
+// (BENCHMARKS.md), the full one saves ~15 % of the Krylov iterations, not the half it costs.  Dirichlet rows of B^T are zero: K keeps
 // identity rows there.  Krylov on K itself with the same preconditioner (Woodbury) is
 // worse: its error term carries D B A_s^-1 B^T, which grows with kappa.  Measured
 // (BENCHMARKS.md, "Preconditioners against kappa"): the count still grows with kappa
@@ -117,6 +119,18 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
   PetscOptionsGetReal(nullptr, nullptr, "-penalty_split_ratio", &_split_ratio, nullptr);
   if (!(_split_ratio > 0))
     throw InputError("-penalty_split_ratio must be > 0");
+  char factorization[16] = "";
+  PetscBool given = PETSC_FALSE;
+  PetscOptionsGetString(nullptr, nullptr, "-penalty_split_factorization", factorization,
+                        sizeof(factorization), &given);
+  if (given)
+  {
+    _split_factorization = factorization;
+    if (_split_factorization != "full" and _split_factorization != "lower"
+        and _split_factorization != "upper")
+      throw InputError("-penalty_split_factorization " + _split_factorization
+                       + ": allowed are full, lower, upper");
+  }
   KSPCreate(comm, &_soft);
   // -soft_pc_gamg_* etc. tune the multigrid of the soft matrix
   KSPSetOptionsPrefix(_soft, "soft_");
@@ -308,19 +322,44 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   SaddleParts parts(r, z, self->_part_in, self->_part_out);
   const PetscScalar* rr = parts.x;
   PetscScalar* zz = parts.y;
-  // x1 = A_s^-1 r_u;  q = (D_r B x1 - r_q) / (1 + D_r h);  z_u = A_s^-1 (r_u - B^T q)
-  soft_solve(self->_part_in, self->_soft_y);
-  self->to_full(self->_soft_y);
-  std::span<const double> x1 = self->_work.array();
   std::span<double> w = self->_work2.mutable_array();
   std::fill(w.begin(), w.end(), 0.0);
-  apply_B_and_BT(self->_cell_unknowns, x1, w, parts.nu,
-                 [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
+  const bool upper = self->_split_factorization == "upper";
+  if (upper)
   {
-    const double d = self->_split[part][i];
-    zz[k] = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
-    return -zz[k];
-  });
+    // q = -r_q / (1 + D_r h);  z_u = A_s^-1 (r_u - B^T q)
+    for_each_cell(self->_cell_unknowns,
+                  [&, k = parts.nu](std::size_t part, std::size_t i, auto g, auto dofs,
+                                    auto fixed) mutable
+    {
+      const double d = self->_split[part][i];
+      zz[k] = -rr[k] / (1 + d * self->_schur_h[part][i]);
+      for (std::size_t j = 0; j < g.size(); ++j)
+        if (!fixed[dofs[j]])
+          w[dofs[j]] -= g[j] * zz[k];
+      ++k;
+    });
+  }
+  else
+  {
+    // x1 = A_s^-1 r_u;  q = (D_r B x1 - r_q) / (1 + D_r h);  full: z_u = A_s^-1 (r_u - B^T q),
+    // lower: z_u = x1
+    soft_solve(self->_part_in, self->_soft_y);
+    self->to_full(self->_soft_y);
+    std::span<const double> x1 = self->_work.array();
+    apply_B_and_BT(self->_cell_unknowns, x1, w, parts.nu,
+                   [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
+    {
+      const double d = self->_split[part][i];
+      zz[k] = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
+      return -zz[k];
+    });
+    if (self->_split_factorization == "lower")
+    {
+      VecCopy(self->_soft_y, self->_part_out);
+      return 0;
+    }
+  }
   self->_work2.scatter_rev(std::plus<double>());
   VecCopy(self->_part_in, self->_soft_r);
   self->add_restricted(self->_work2, self->_soft_r);
