@@ -10,9 +10,10 @@
 //
 // which GMRES solves preconditioned by a block factorisation, A_s^-1 by one V-cycle and
 // the Schur complement I + D_r B A_s^-1 B^T by its diagonal,
-// I + D_r diag_c(sum_j g_cj^2 / A_s,jj).  The lower triangular factor (the default) needs
-// one V-cycle per Krylov iteration, the full factorisation two; measured on the fusiform
-// (BENCHMARKS.md), the full one saves ~15 % of the Krylov iterations, not the half it costs.  Dirichlet rows of B^T are zero: K keeps
+// I + D_r diag_c(sum_j g_cj^2 / A_s,jj).  The lower (default) and upper triangular
+// factors need one V-cycle per Krylov iteration, the full factorisation two; measured on
+// the fusiform (BENCHMARKS.md), the full one saves 0-13 % of the Krylov iterations, not
+// the half it costs.  Dirichlet rows of B^T are zero: K keeps
 // identity rows there.  Krylov on K itself with the same preconditioner (Woodbury) is
 // worse: its error term carries D B A_s^-1 B^T, which grows with kappa.  Measured
 // (BENCHMARKS.md, "Preconditioners against kappa"): the count still grows with kappa
@@ -119,17 +120,17 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
   PetscOptionsGetReal(nullptr, nullptr, "-penalty_split_ratio", &_split_ratio, nullptr);
   if (!(_split_ratio > 0))
     throw InputError("-penalty_split_ratio must be > 0");
-  char factorization[16] = "";
+  char value[256] = "";
   PetscBool given = PETSC_FALSE;
-  PetscOptionsGetString(nullptr, nullptr, "-penalty_split_factorization", factorization,
-                        sizeof(factorization), &given);
+  PetscOptionsGetString(nullptr, nullptr, "-penalty_split_factorization", value, sizeof(value),
+                        &given);
   if (given)
   {
-    _split_factorization = factorization;
-    if (_split_factorization != "full" and _split_factorization != "lower"
-        and _split_factorization != "upper")
+    _split_factorization = value;
+    if (_split_factorization != "lower" and _split_factorization != "upper"
+        and _split_factorization != "full")
       throw InputError("-penalty_split_factorization " + _split_factorization
-                       + ": allowed are full, lower, upper");
+                       + ": allowed are lower, upper, full");
   }
   KSPCreate(comm, &_soft);
   // -soft_pc_gamg_* etc. tune the multigrid of the soft matrix
@@ -328,9 +329,9 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   if (upper)
   {
     // q = -r_q / (1 + D_r h);  z_u = A_s^-1 (r_u - B^T q)
+    PetscInt k = parts.nu;
     for_each_cell(self->_cell_unknowns,
-                  [&, k = parts.nu](std::size_t part, std::size_t i, auto g, auto dofs,
-                                    auto fixed) mutable
+                  [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
     {
       const double d = self->_split[part][i];
       zz[k] = -rr[k] / (1 + d * self->_schur_h[part][i]);
