@@ -147,6 +147,14 @@ RUNS = {
                       "_penalty_split_factorizationlower",
     "kpl2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
                        "_penalty_split_factorizationlower",
+    "kpu_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
+                      "_penalty_split_factorizationupper",
+    "kpu_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
+                      "_penalty_split_factorizationupper",
+    "kpu2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
+                      "_penalty_split_factorizationupper",
+    "kpu2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
+                      "_penalty_split_factorizationupper",
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -551,7 +559,7 @@ SOLVER_NAMES = {"lu": "MUMPS", "gmres-gamg": "GAMG", "gmres-hypre": "BoomerAMG"}
 
 
 KAPPA_CANDIDATES = ("MUMPS", "GAMG", "GAMG, SOR levels", "BoomerAMG, systems", "penalty split",
-                    "penalty split, lower")
+                    "penalty split, lower", "penalty split, upper")
 
 
 def kappa_of(r):

@@ -28,9 +28,10 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             and run (apt: --apt-seconds, timed on a fresh machine)
   kappa     preconditioners against the penalty: COMBI isometric F-bar, kappa = 10 ...
             10^4, MUMPS / GAMG / GAMG with SOR levels / BoomerAMG for systems / the
-            penalty split (gmres-schur), n = 1 on one rank and n = 2 on two
-            (--kappa-refinements, --kappa-candidates, --kappas)
+            penalty split (gmres-schur; full, lower, upper factor), n = 1 on one rank
+            and n = 2 on two (--kappa-refinements, --kappa-candidates, --kappas)
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
+            (full factor at linear rtol 1e-6, lower at 1e-4)
   taylor-hood  the bending cantilever, Q2 against Taylor-Hood (MUMPS, Schur split) by
             refinement (taylor_hood.py); map-taylor-hood: Taylor-Hood on the map, n = 1
   restore   seed WORK with the run records saved in --results (earlier sessions)
@@ -548,6 +549,7 @@ KAPPA_CANDIDATES = {
     # the block factorisation named: the first kappa runs predate the lower one
     "penalty split": ("gmres-schur", ("-penalty_split_factorization full",)),
     "penalty split, lower": ("gmres-schur", ("-penalty_split_factorization lower",)),
+    "penalty split, upper": ("gmres-schur", ("-penalty_split_factorization upper",)),
 }
 
 
