@@ -334,17 +334,28 @@ struct Factorisation
   ~Factorisation() { PetscOptionsClearValue(nullptr, "-penalty_split_factorization"); }
 };
 
+NewtonOptions split_options()
+{
+  NewtonOptions options = multigrid_options();
+  options.linear_solver = "gmres-schur";
+  return options;
+}
+
+/// The block lifted (or, constrained, moved) by 0.05, solved with the penalty split.
+NewtonReport solve_split(Block& block)
+{
+  NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
+  block.problem->set_time_factor(1.0);
+  block.lift->value = {0.05};
+  return solver.solve();
+}
+
 /// Krylov iterations of the penalty split on the lifted block at kappa, by factorisation.
 long split_krylov_iterations(const char* factorization, double kappa)
 {
   const Factorisation chosen(factorization);
   Block block = make_block(Model("combi"), false, kappa);
-  NewtonOptions options = multigrid_options();
-  options.linear_solver = "gmres-schur";
-  NonlinearSolver solver(*block.problem, block.bcs, block.constraint, options);
-  block.problem->set_time_factor(1.0);
-  block.lift->value = {0.05};
-  const NewtonReport report = solver.solve();
+  const NewtonReport report = solve_split(block);
   EXPECT_TRUE(report.converged) << factorization << ": " << report.reason;
   return report.linear_iterations;
 }
@@ -356,21 +367,15 @@ TEST_P(PenaltySplit, ConvergesUnderTheStiffPenaltyToTheDirectSolversState)
   for (const double kappa : {100.0, 10000.0})
   {
     Block block = make_block(Model("combi"), constrained, kappa);
-    MuscleProblem& problem = *block.problem;
-    NewtonOptions options = multigrid_options();
-    options.linear_solver = "gmres-schur";
-    NonlinearSolver solver(problem, block.bcs, block.constraint, options);
-    problem.set_time_factor(1.0);
-    block.lift->value = {0.05};
-    const NewtonReport report = solver.solve();
+    const NewtonReport report = solve_split(block);
     ASSERT_TRUE(report.converged) << "kappa " << kappa << ": " << report.reason;
     EXPECT_LT(report.linear_iterations, 300 * report.iterations)
         << "kappa " << kappa << ": " << report.linear_iterations << " Krylov iterations in "
         << report.iterations << " Newton iterations";
     const Outcome lu = solve(Model("combi"), true, "cp", constrained, 1, kappa);
     ASSERT_TRUE(lu.report.converged) << lu.report.reason;
-    const std::vector<double> u(problem.u()->x()->array().begin(),
-                                problem.u()->x()->array().end());
+    const auto& x = block.problem->u()->x()->array();
+    const std::vector<double> u(x.begin(), x.end());
     EXPECT_LT(max_abs_diff(u, lu.u), 1e-7 * max_abs(lu.u)) << "kappa " << kappa;
   }
 }
@@ -401,11 +406,9 @@ TEST(PenaltySplitInput, AnUnknownFactorisationIsAnInputError)
 {
   const Factorisation chosen("diagonal");
   Block block = make_block(Model("combi"), false, 1000.0);
-  NewtonOptions options = multigrid_options();
-  options.linear_solver = "gmres-schur";
   try
   {
-    NonlinearSolver solver(*block.problem, block.bcs, block.constraint, options);
+    NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
     ADD_FAILURE() << "no error for -penalty_split_factorization diagonal";
   }
   catch (const InputError& e)

@@ -211,7 +211,7 @@ NonlinearSolver::~NonlinearSolver()
   MatDestroy(&_A_soft);
   MatDestroy(&_A_soft_red);
   MatDestroy(&_saddle);
-  for (Vec* v : {&_soft_y, &_soft_r, &_saddle_b, &_saddle_x, &_part_in, &_part_out})
+  for (Vec* v : {&_soft_r, &_saddle_b, &_saddle_x, &_part_in, &_part_out})
     VecDestroy(v);
   MatDestroy(&_J_ext);
   for (Mat& M : _th_blocks)

@@ -270,7 +270,7 @@ private:
   Mat _A_soft = nullptr;   ///< K with the cells' stiff penalty share taken out
   Mat _A_soft_red = nullptr; ///< T^T A_soft T when constrained
   PetscObjectState _soft_state = -1; ///< _A's nonzero state when _A_soft was made
-  Vec _soft_y = nullptr, _soft_r = nullptr;
+  Vec _soft_r = nullptr;
   /// per part and cell: the removed penalty (1 - s_c) K00_c, and sum_j g_j^2 / A_s,jj
   std::vector<std::vector<double>> _split, _schur_h;
   PetscReal _split_ratio = 1; ///< kept penalty / rest of the diagonal (-penalty_split_ratio)

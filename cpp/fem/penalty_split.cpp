@@ -140,7 +140,6 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
   KSPGetPC(_soft, &pc);
   PCSetType(pc, PCGAMG);
   KSPSetFromOptions(_soft);
-  VecDuplicate(_rhs, &_soft_y);
   VecDuplicate(_rhs, &_soft_r);
 
   PetscInt nu, nq = 0;
@@ -344,9 +343,9 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   else
   {
     // x1 = A_s^-1 r_u;  q = (D_r B x1 - r_q) / (1 + D_r h);  full: z_u = A_s^-1 (r_u - B^T q),
-    // lower: z_u = x1
-    soft_solve(self->_part_in, self->_soft_y);
-    self->to_full(self->_soft_y);
+    // lower: z_u = x1 (x1 lands in z_u; the full factor's second solve overwrites it)
+    soft_solve(self->_part_in, self->_part_out);
+    self->to_full(self->_part_out);
     std::span<const double> x1 = self->_work.array();
     apply_B_and_BT(self->_cell_unknowns, x1, w, parts.nu,
                    [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
@@ -356,10 +355,7 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
       return -zz[k];
     });
     if (self->_split_factorization == "lower")
-    {
-      VecCopy(self->_soft_y, self->_part_out);
       return 0;
-    }
   }
   self->_work2.scatter_rev(std::plus<double>());
   VecCopy(self->_part_in, self->_soft_r);
