@@ -155,6 +155,11 @@ RUNS = {
                       "_penalty_split_factorizationupper",
     "kpu2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
                       "_penalty_split_factorizationupper",
+    # Taylor-Hood with its Schur field split in the kappa study (n = 1, one rank)
+    "kth_k10": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10",
+    "kth_k100": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100",
+    "kth_k1000": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000",
+    "kth_k10000": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000",
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -167,6 +172,9 @@ RUNS = {
     "th_iso": "combi_isometric_hex2th_n1_dt0.05_lu_np1",
     "th_free": "combi_free_hex2th_n1_dt0.05_lu_np1",
     "th_iso_schur": "combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1",
+    # Taylor-Hood n = 2 and n = 1 with the Schur split on two ranks, --linear-rtol 1e-4
+    "th2_iso_schur": "combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol0.0001",
+    "th_iso_schur_np2": "combi_isometric_hex2th_n1_dt0.05_gmres-schur_np2_rtol0.0001",
     "th_free_schur": "combi_free_hex2th_n1_dt0.05_gmres-schur_np1",
     # F-bar Q1
     "fb_iso": "combi_isometric_hex1fbar_n1_dt0.05_lu_np1",
@@ -325,6 +333,7 @@ def make_helpers(res):
                 raw, config, contrast, study),
             "cantilever": lambda element, refinement: cantilever_run(raw, element, refinement),
             "cantilever_reference": lambda: cantilever_reference(raw),
+            "sweep": lambda refinement, nu: sweep_run(raw, refinement, nu),
             "min": min, "max": max, "abs": abs, "round": round, "log2": math.log2}
 
 
@@ -559,7 +568,7 @@ SOLVER_NAMES = {"lu": "MUMPS", "gmres-gamg": "GAMG", "gmres-hypre": "BoomerAMG"}
 
 
 KAPPA_CANDIDATES = ("MUMPS", "GAMG", "GAMG, SOR levels", "BoomerAMG, systems", "penalty split",
-                    "penalty split, lower", "penalty split, upper")
+                    "penalty split, lower", "penalty split, upper", "Taylor-Hood, Schur split")
 
 
 def kappa_of(r):
@@ -615,7 +624,9 @@ def kappa_runs_table(res):
             done = r.get("completed")
             ref = mumps.get((case, n, k))
             value = "F33" if case == "isometric" else "epsilon"
-            diff = abs(r[value] / ref[value] - 1) if done and ref and label != "MUMPS" else None
+            diff = (abs(r[value] / ref[value] - 1)
+                    if done and ref and label != "MUMPS" and r["element"] == ref["element"]
+                    else None)  # Taylor-Hood: another element, another answer
             rows.append([label, case, n, ranks, f"{k:g}",
                          (fmt(r["F33"], ",.2f") if case == "isometric"
                           else fmt(r["epsilon"], ".5f")) if done else "-",
@@ -1181,20 +1192,54 @@ TAYLOR_HOOD_ELEMENTS = {"Q2": "Q2", "Q2TH": "Taylor-Hood, MUMPS",
                         "Q2TH-schur": "Taylor-Hood, GMRES + field split"}
 
 
-def cantilever_run(raw, element, refinement):
-    """A run of phase taylor-hood, with krylov_per_newton."""
-    r = next((r for r in raw.get("taylor_hood_runs", [])
-              if r["element"] == element and r["refinement"] == refinement), None)
+def cantilever_runs(raw, study="cantilever"):
+    """Phase taylor-hood's runs: the full load by element and refinement ("cantilever") or
+    the Schur split's sweep of lambda / mu ("cantilever_sweep")."""
+    return [r for r in raw.get("taylor_hood_runs", []) if r.get("study") == study]
+
+
+def with_krylov_per_newton(r):
     out = Obj(r or {"completed": False})
     if out.get("completed") and out.get("newton_iterations"):
         out["krylov_per_newton"] = (out.get("linear_iterations") or 0) / out["newton_iterations"]
     return out
 
 
+def cantilever_run(raw, element, refinement):
+    """A run of phase taylor-hood at full load, with krylov_per_newton."""
+    return with_krylov_per_newton(next((r for r in cantilever_runs(raw)
+                                        if r["element"] == element
+                                        and r["refinement"] == refinement), None))
+
+
+def sweep_run(raw, refinement, nu):
+    """A run of the Schur split's lambda / mu sweep, with krylov_per_newton."""
+    return with_krylov_per_newton(next((r for r in cantilever_runs(raw, "cantilever_sweep")
+                                        if r["refinement"] == refinement and r["nu"] == nu),
+                                       None))
+
+
+@table
+def taylor_hood_sweep_table(res):
+    """The Schur split's Krylov iterations per Newton iteration against lambda / mu and
+    the mesh (the cantilever's first three load steps)."""
+    runs = cantilever_runs(res.raw, "cantilever_sweep")
+    nus = sorted({r["nu"] for r in runs})
+    rows = []
+    for refinement in sorted({r["refinement"] for r in runs}):
+        cells = [sweep_run(res.raw, refinement, nu) for nu in nus]
+        rows.append([f"{20 * refinement} x {2 * refinement} x {2 * refinement}",
+                     fmt(next((c.get("unknowns") for c in cells if c.get("unknowns")), None), ",")]
+                    + [f"{c['newton_iterations']} / {c['krylov_per_newton']:.0f}"
+                       if c.get("completed") else f"exit {c.get('returncode')}" for c in cells])
+    return md_table(["cells", "unknowns"]
+                    + [f"lambda / mu = {2 * nu / (1 - 2 * nu):.0f}" for nu in nus], rows)
+
+
 def cantilever_reference(raw):
     """The finest completed Taylor-Hood (MUMPS) tip and the change from the one before
     it (its error estimate)."""
-    done = sorted((r for r in raw.get("taylor_hood_runs", [])
+    done = sorted((r for r in cantilever_runs(raw)
                    if r["element"] == "Q2TH" and r.get("completed") and r.get("tip_z")),
                   key=lambda r: r["refinement"])
     if not done:
@@ -1212,7 +1257,7 @@ def taylor_hood_table(res):
     ref = cantilever_reference(raw)
     rows = []
     for element, label in TAYLOR_HOOD_ELEMENTS.items():
-        for refinement in sorted({r["refinement"] for r in raw.get("taylor_hood_runs", [])
+        for refinement in sorted({r["refinement"] for r in cantilever_runs(raw)
                                   if r["element"] == element}):
             r = cantilever_run(raw, element, refinement)
             cells = f"{20 * refinement} x {2 * refinement} x {2 * refinement}"

@@ -1,7 +1,9 @@
 """Phase taylor-hood of run_benchmarks.py: the Taylor-Hood element (Q2-Q1) against plain Q2
 on the bending-dominated, nearly incompressible cantilever under follower pressure
 (demos/scenes/cantilever_pressure.yaml, lambda / mu = 1000, tip -0.41 L), by refinement:
-tip deflection, wall time, Newton iterations, unknowns.  Runs go to
+tip deflection, wall time, Newton iterations, unknowns; and the Schur split's Krylov
+iterations against lambda / mu (10 ... 10^4, Poisson's ratio) and the mesh, over the first
+three load steps.  Runs go to
 WORK/taylor_hood/NAME (summary.json, series.csv, time.txt, record.json); --reuse keeps
 completed ones."""
 import glob
@@ -28,6 +30,15 @@ def tip(out):
         lines = [line.strip().split(",") for line in f if line.strip()]
     row = dict(zip(lines[0], lines[-1]))
     return float(row["tip_z"]) if len(lines) > 1 else None
+# Poisson's ratio of the lambda / mu sweep: 2 nu / (1 - 2 nu) = 9, 99, 999 (the scene's),
+# 9999; the first three of the ten load steps (tip -0.13 L)
+SWEEP_NU = (0.45, 0.495, 0.4995, 0.49995)
+SWEEP_REFINEMENTS = (1, 2, 3)
+SWEEP_END = 0.3
+
+
+def lambda_over_mu(nu):
+    return 2 * nu / (1 - 2 * nu)
 
 
 def phase(args, records):
@@ -41,6 +52,21 @@ def phase(args, records):
                               timeout=2400, folder="taylor_hood")
             r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
             r["solver"] = "gmres-schur" if "schur" in element else "lu"
+            records.put("taylor_hood", r["name"], r)
+    for refinement in SWEEP_REFINEMENTS:
+        for nu in SWEEP_NU:
+            name = f"cantilever_Q2TH-schur_r{refinement}_nu{nu:g}_t{SWEEP_END:g}"
+            r = stiffsoft.run(args, "cantilever_sweep", None, SCENE,
+                              ELEMENTS["Q2TH-schur"][0]
+                              + [f"mesh.set.refinement={refinement}",
+                                 f"parts[0].material.parameters.nu={nu:g}",
+                                 f"time.end={SWEEP_END:g}",
+                                 "output.fields=false", "output.plots=false"],
+                              name, {"element": "Q2TH-schur", "refinement": refinement,
+                                     "nu": nu, "lambda_over_mu": lambda_over_mu(nu)},
+                              timeout=2400, folder="taylor_hood")
+            r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
+            r["solver"] = "gmres-schur"
             records.put("taylor_hood", r["name"], r)
 
 

@@ -283,9 +283,11 @@ void NonlinearSolver::configure_mixed_split(PC pc)
 {
   // The displacement block sees the energy at F_bar with theta held: its
   // stiffness is the deviatoric one, free of kappa, which multigrid handles;
-  // kappa lives in the q block.  Schur complement of q, approximated by
-  // A_qq - A_qu diag(A)^-1 A_uq and factored (q is small: two unknowns per
-  // degree-1 node).
+  // kappa lives in the q block.  Schur complement of q, approximated by A_qq
+  // with -M / mu in its pp part (update_schur_preconditioner) and factored (q is
+  // small: two unknowns per degree-1 node).  The kappa part is kept exactly and
+  // the pair is inf-sup stable, so the count does not grow with kappa
+  // (BENCHMARKS.md, "Preconditioners against kappa").
   PetscInt n, start, end;
   VecGetLocalSize(_x, &n);
   VecGetOwnershipRange(_x_ext, &start, &end);

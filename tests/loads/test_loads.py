@@ -282,6 +282,33 @@ def test_taylor_hood_every_law(build, scratch, record, model):
         assert abs(th[key] - q2[key]) < 1e-7 * max(abs(q2[key]), 1e-3), (key, q2, th)
 
 
+def test_taylor_hood_schur_split_robust_in_lambda(build, scratch, record):
+    """GMRES with the Schur field split (GAMG on u, the (theta, p) block with -M / mu added
+    to its pp part) against MUMPS on the cantilever's first load step, at lambda / mu = 9
+    and 9999: the same tip (to the Newton tolerance), and Krylov iterations per Newton
+    iteration that do not grow with lambda / mu.  The block alone as the Schur
+    approximation (-pc_fieldsplit_schur_precondition a11, the 1 / kappa part without the
+    1 / mu one) needs 248 at 9 and breaks down at 9999."""
+    counts = {}
+    for nu in (0.45, 0.49995):
+        tips = {}
+        for solver in ("lu", "gmres-schur"):
+            out = os.path.join(scratch, f"{solver}_{nu}")
+            result = cantilever(build, out, TAYLOR_HOOD + [
+                f"parts[0].material.parameters.nu={nu}", f"solver.linear={solver}",
+                "time.end=0.1"])
+            assert result.returncode == 0, result.stdout + result.stderr
+            tips[solver] = series_rows(out)[-1]["tip_z"]
+            with open(os.path.join(out, "summary.json")) as f:
+                summary = json.load(f)
+            counts[(nu, solver)] = summary["linear_iterations"] / summary["newton_iterations"]
+        assert abs(tips["gmres-schur"] / tips["lu"] - 1) < 1e-7, (nu, tips)
+    soft, stiff = counts[(0.45, "gmres-schur")], counts[(0.49995, "gmres-schur")]
+    record(f"Taylor-Hood Schur split, cantilever step 1: {soft:.1f} Krylov its per Newton it "
+           f"at lambda / mu = 9, {stiff:.1f} at 9999")
+    assert stiff < 1.2 * soft and stiff < 100, counts
+
+
 def test_taylor_hood_bad_input(build, scratch):
     """Taylor-Hood needs degree 2; the message names the key and what to set."""
     result = run(build, "compression.yaml", scratch, ["element.taylor_hood=true"])
