@@ -28,15 +28,17 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             and run (apt: --apt-seconds, timed on a fresh machine)
   kappa     preconditioners against the penalty: COMBI isometric F-bar, kappa = 10 ...
             10^4, MUMPS / GAMG / GAMG with SOR levels / BoomerAMG for systems / the
-            penalty split (gmres-schur; full, lower, upper factor), Taylor-Hood with its
-            Schur field split; n = 1 on one rank and n = 2 on two (--kappa-refinements,
-            --kappa-candidates, --kappas)
+            penalty split (gmres-schur; full, lower, upper factor); n = 1 on one rank
+            and n = 2 on two (--kappa-refinements, --kappa-candidates, --kappas); and
+            Taylor-Hood with its Schur field split, n = 1 only
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
             (full factor at linear rtol 1e-6, lower at 1e-4)
   taylor-hood  the bending cantilever, Q2 against Taylor-Hood (MUMPS, Schur split) by
             refinement and the Schur split against lambda / mu (taylor_hood.py);
             map-taylor-hood: Taylor-Hood on the map, n = 1; map-taylor-hood-n2: its
-            isometric n = 2 (418,693 unknowns, Schur split, 2 ranks; not in the default list)
+            isometric n = 2 (418,693 unknowns) and n = 1 alike, Schur split, 2 ranks,
+            linear rtol 1e-4 (not in the default list; n = 2 took 1090 s of the
+            default --map-timeout 1800)
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
   report    benchmarks/results.json and docs/images/speed_accuracy*.png from
@@ -555,27 +557,33 @@ KAPPA_CANDIDATES = {
     "penalty split, upper": ("gmres-schur", ("-penalty_split_factorization upper",)),
     "Taylor-Hood, Schur split": ("gmres-schur", ()),
 }
-# the element of each candidate: F-bar unless named (Taylor-Hood's Schur split is PETSc's
-# field split on (u | theta, p), the inf-sup stable pair)
-KAPPA_ELEMENTS = {"Taylor-Hood, Schur split": dict(degree=2, taylor_hood=True)}
+# Candidates on another element than F-bar: element options, refinements run (n = 2 has
+# 418,693 unknowns) and the n = 1 timeout in place of --kappa-timeout.  Taylor-Hood's
+# Schur split is PETSc's field split on (u | theta, p), the inf-sup stable pair.
+KAPPA_ELEMENTS = {"Taylor-Hood, Schur split": (dict(degree=2, taylor_hood=True), (1,), 900)}
 
 
 def kappa_runs(args):
-    """COMBI isometric F-bar at kappa = 10 ... 10^4 with every candidate: n = 1 on one rank,
-    n = 2 on two ranks (--kappa-refinements)."""
+    """COMBI isometric at kappa = 10 ... 10^4 with every candidate (on F-bar unless
+    KAPPA_ELEMENTS names another element): n = 1 on one rank, n = 2 on two ranks
+    (--kappa-refinements)."""
     runs = []
     for n in args.kappa_refinements:
         for label in args.kappa_candidates:
             solver, petsc = KAPPA_CANDIDATES[label]
+            _, refinements, timeout = KAPPA_ELEMENTS.get(label, (None, (n,), args.kappa_timeout))
+            if n not in refinements:
+                continue
             for kappa in args.kappas:
                 runs.append(dict(label=label, solver=solver, petsc=petsc, n=n,
                                  np=1 if n == 1 else 2, sets=(f"kappa={kappa:g}",),
-                                 rtol=None if solver == "lu" else 1e-6))
+                                 rtol=None if solver == "lu" else 1e-6,
+                                 timeout=timeout * n ** 3))
     return runs
 
 
 def kappa_run(args, records, label, **kw):
-    element = KAPPA_ELEMENTS.get(label, dict(fbar=True))
+    element = KAPPA_ELEMENTS.get(label, (dict(fbar=True),))[0]
     r = fusiform(args, dt=args.e2e_dt, group="kappa", study="kappa", **element, **kw)
     r["candidate"] = label
     if "skipped" not in r:
@@ -594,7 +602,7 @@ def phase_kappa(args, records):
         if kw["n"] > 1 and label in failed:
             print(f"  skip {label} n={kw['n']}: failed at n = 1", flush=True)
             continue
-        r = kappa_run(args, records, label, timeout=args.kappa_timeout * kw["n"] ** 3, **kw)
+        r = kappa_run(args, records, label, **kw)
         if not r.get("completed"):
             failed.add(label)
 
@@ -710,10 +718,10 @@ def map_runs(args, group):
     if group == "taylor-hood":  # the mixed element, MUMPS and its Schur split
         return (both(cell="hex", degree=2, n=1, dt=dt, taylor_hood=True)
                 + both(cell="hex", degree=2, n=1, dt=dt, taylor_hood=True, solver="gmres-schur"))
-    if group == "taylor-hood-n2":  # the isometric force's second Taylor-Hood mesh: too
-        # big for MUMPS here (3-D fill), so the Schur split on two ranks; Newton's
-        # tolerance sets F33, a looser linear one only the Krylov count (n = 1 alike, for
-        # the count's growth in n)
+    if group == "taylor-hood-n2":  # the isometric force's second Taylor-Hood mesh: MUMPS's
+        # 3-D fill would exceed this machine's memory (estimate), so the Schur split on two
+        # ranks; Newton's tolerance sets F33, the looser linear one the Krylov count and a
+        # few Newton iterations (n = 1 alike, for the count's growth in n)
         return [dict(case="isometric", cell="hex", degree=2, n=n, dt=dt, taylor_hood=True,
                      solver="gmres-schur", np=2, rtol=1e-4) for n in (2, 1)]
     if group == "late":

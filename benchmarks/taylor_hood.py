@@ -2,10 +2,9 @@
 on the bending-dominated, nearly incompressible cantilever under follower pressure
 (demos/scenes/cantilever_pressure.yaml, lambda / mu = 1000, tip -0.41 L), by refinement:
 tip deflection, wall time, Newton iterations, unknowns; and the Schur split's Krylov
-iterations against lambda / mu (10 ... 10^4, Poisson's ratio) and the mesh, over the first
-three load steps.  Runs go to
-WORK/taylor_hood/NAME (summary.json, series.csv, time.txt, record.json); --reuse keeps
-completed ones."""
+iterations against lambda / mu (9 ... 9999, through Poisson's ratio) and the mesh, over the
+first three load steps.  Runs go to WORK/taylor_hood/NAME (summary.json, series.csv,
+time.txt, record.json); --reuse keeps completed ones."""
 import glob
 import json
 import os
@@ -19,6 +18,11 @@ TAYLOR_HOOD = ["element.degree=2", "element.taylor_hood=true"]
 ELEMENTS = {"Q2": (["element.degree=2"], (1, 2, 3)),
             "Q2TH": (TAYLOR_HOOD, (1, 2, 3)),
             "Q2TH-schur": (TAYLOR_HOOD + ["solver.linear=gmres-schur"], (1, 2))}
+# Poisson's ratio of the lambda / mu sweep: 2 nu / (1 - 2 nu) = 9, 99, 999 (the scene's),
+# 9999; the first three of the ten load steps (tip -0.13 L)
+SWEEP_NU = (0.45, 0.495, 0.4995, 0.49995)
+SWEEP_REFINEMENTS = (1, 2, 3)
+SWEEP_END = 0.3
 
 
 def tip(out):
@@ -30,44 +34,35 @@ def tip(out):
         lines = [line.strip().split(",") for line in f if line.strip()]
     row = dict(zip(lines[0], lines[-1]))
     return float(row["tip_z"]) if len(lines) > 1 else None
-# Poisson's ratio of the lambda / mu sweep: 2 nu / (1 - 2 nu) = 9, 99, 999 (the scene's),
-# 9999; the first three of the ten load steps (tip -0.13 L)
-SWEEP_NU = (0.45, 0.495, 0.4995, 0.49995)
-SWEEP_REFINEMENTS = (1, 2, 3)
-SWEEP_END = 0.3
 
 
-def lambda_over_mu(nu):
-    return 2 * nu / (1 - 2 * nu)
+def solver_of(element):
+    return "gmres-schur" if "schur" in element else "lu"
+
+
+def run(args, records, study, element, refinement, name, sets=(), extra=None):
+    """One cantilever run of `element` at `refinement` with further scene keys `sets`."""
+    r = stiffsoft.run(args, study, None, SCENE,
+                      ELEMENTS[element][0] + [f"mesh.set.refinement={refinement}", *sets,
+                                              "output.fields=false", "output.plots=false"],
+                      name, {"element": element, "refinement": refinement,
+                             "solver": solver_of(element), **(extra or {})},
+                      timeout=2400, folder="taylor_hood")
+    r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
+    records.put("taylor_hood", r["name"], r)
 
 
 def phase(args, records):
-    for element, (sets, refinements) in ELEMENTS.items():
+    for element, (_, refinements) in ELEMENTS.items():
         for refinement in refinements:
-            name = f"cantilever_{element}_r{refinement}"
-            r = stiffsoft.run(args, "cantilever", None, SCENE,
-                              sets + [f"mesh.set.refinement={refinement}",
-                                      "output.fields=false", "output.plots=false"],
-                              name, {"element": element, "refinement": refinement},
-                              timeout=2400, folder="taylor_hood")
-            r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
-            r["solver"] = "gmres-schur" if "schur" in element else "lu"
-            records.put("taylor_hood", r["name"], r)
+            run(args, records, "cantilever", element, refinement,
+                f"cantilever_{element}_r{refinement}")
     for refinement in SWEEP_REFINEMENTS:
         for nu in SWEEP_NU:
-            name = f"cantilever_Q2TH-schur_r{refinement}_nu{nu:g}_t{SWEEP_END:g}"
-            r = stiffsoft.run(args, "cantilever_sweep", None, SCENE,
-                              ELEMENTS["Q2TH-schur"][0]
-                              + [f"mesh.set.refinement={refinement}",
-                                 f"parts[0].material.parameters.nu={nu:g}",
-                                 f"time.end={SWEEP_END:g}",
-                                 "output.fields=false", "output.plots=false"],
-                              name, {"element": "Q2TH-schur", "refinement": refinement,
-                                     "nu": nu, "lambda_over_mu": lambda_over_mu(nu)},
-                              timeout=2400, folder="taylor_hood")
-            r["tip_z"] = tip(os.path.join(args.work, "taylor_hood", name))
-            r["solver"] = "gmres-schur"
-            records.put("taylor_hood", r["name"], r)
+            run(args, records, "cantilever_sweep", "Q2TH-schur", refinement,
+                f"cantilever_Q2TH-schur_r{refinement}_nu{nu:g}_t{SWEEP_END:g}",
+                [f"parts[0].material.parameters.nu={nu:g}", f"time.end={SWEEP_END:g}"],
+                {"nu": nu, "lambda_over_mu": 2 * nu / (1 - 2 * nu)})
 
 
 def collect(work):
@@ -77,5 +72,6 @@ def collect(work):
         with open(path) as f:
             r = json.load(f)
         r["tip_z"] = tip(os.path.dirname(path))
+        r["solver"] = solver_of(r["element"])  # records written before it was kept
         out[r["name"]] = r
     return out

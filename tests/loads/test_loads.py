@@ -299,14 +299,16 @@ def test_taylor_hood_schur_split_robust_in_lambda(build, scratch, record):
                 "time.end=0.1"])
             assert result.returncode == 0, result.stdout + result.stderr
             tips[solver] = series_rows(out)[-1]["tip_z"]
-            with open(os.path.join(out, "summary.json")) as f:
-                summary = json.load(f)
-            counts[(nu, solver)] = summary["linear_iterations"] / summary["newton_iterations"]
         assert abs(tips["gmres-schur"] / tips["lu"] - 1) < 1e-7, (nu, tips)
-    soft, stiff = counts[(0.45, "gmres-schur")], counts[(0.49995, "gmres-schur")]
+        with open(os.path.join(out, "summary.json")) as f:  # the Schur split's run
+            summary = json.load(f)
+        counts[nu] = summary["linear_iterations"] / summary["newton_iterations"]
+    soft, stiff = counts[0.45], counts[0.49995]
     record(f"Taylor-Hood Schur split, cantilever step 1: {soft:.1f} Krylov its per Newton it "
            f"at lambda / mu = 9, {stiff:.1f} at 9999")
-    assert stiff < 1.2 * soft and stiff < 100, counts
+    # the ratio is the check; the cap (69 and 72.5 measured) only catches a split that
+    # is uniformly far worse
+    assert stiff < 1.2 * soft and stiff < 150, counts
 
 
 def test_taylor_hood_bad_input(build, scratch):
