@@ -911,9 +911,8 @@ def stiff_soft_run(raw, config, contrast=None, study="stiff_soft"):
     pick = lambda c: next(r for r in runs if r["config"] == c  # noqa: E731
                           and (contrast is None or r.get("contrast") == contrast))
     r, lu = pick(config), pick("lu")
-    out = Obj(r)
+    out = with_krylov_per_newton(r)
     if r.get("completed"):
-        out["krylov_per_newton"] = r["linear_iterations"] / r["newton_iterations"]
         out["difference"] = max(abs(v - lu["final"][k]) / max(abs(lu["final"][k]), 1e-300)
                                 for k, v in r["final"].items())
     return out

@@ -68,20 +68,23 @@ void for_each_cell(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts, 
 }
 
 /// B and B^T over the cells at once: for each cell (in saddle order k from `k`)
-/// s = f(part, cell, k, (B u)_cell), then w += s g on the cell's free dofs.
-template <typename F>
+/// s = f(part, cell, k, (B u)_cell), then w += s g on the cell's free dofs.  Either
+/// half can be left out: without B, f gets 0 for (B u)_cell; without B^T, w is untouched.
+template <bool with_B, bool with_BT, typename F>
 void apply_B_and_BT(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts,
                     std::span<const double> u, std::span<double> w, PetscInt k, F f)
 {
   for_each_cell(parts, [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
   {
     double Bu = 0;
-    for (std::size_t j = 0; j < g.size(); ++j)
-      Bu += g[j] * u[dofs[j]];
+    if constexpr (with_B)
+      for (std::size_t j = 0; j < g.size(); ++j)
+        Bu += g[j] * u[dofs[j]];
     const double scale = f(part, i, k++, Bu);
-    for (std::size_t j = 0; j < g.size(); ++j)
-      if (!fixed[dofs[j]])
-        w[dofs[j]] += g[j] * scale;
+    if constexpr (with_BT)
+      for (std::size_t j = 0; j < g.size(); ++j)
+        if (!fixed[dofs[j]])
+          w[dofs[j]] += g[j] * scale;
   });
 }
 
@@ -296,8 +299,8 @@ PetscErrorCode NonlinearSolver::saddle_multiply(Mat M, Vec v, Vec y)
   std::span<const double> u = self->_work.array();
   std::span<double> w = self->_work2.mutable_array();
   std::fill(w.begin(), w.end(), 0.0);
-  apply_B_and_BT(self->_cell_unknowns, u, w, parts.nu,
-                 [&](std::size_t part, std::size_t i, PetscInt k, double Bu)
+  apply_B_and_BT<true, true>(self->_cell_unknowns, u, w, parts.nu,
+                             [&](std::size_t part, std::size_t i, PetscInt k, double Bu)
   {
     yy[k] = self->_split[part][i] * Bu - vv[k];
     return vv[k];
@@ -323,39 +326,33 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   const PetscScalar* rr = parts.x;
   PetscScalar* zz = parts.y;
   std::span<double> w = self->_work2.mutable_array();
-  std::fill(w.begin(), w.end(), 0.0);
-  const bool upper = self->_split_factorization == "upper";
-  if (upper)
+  const std::string& factorization = self->_split_factorization;
+  // q = (D_r B x1 - r_q) / (1 + D_r h), without B x1 for the upper factor; B^T q into w
+  // for the second soft solve, which the lower factor does not make
+  auto schur = [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
   {
+    const double d = self->_split[part][i];
+    zz[k] = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
+    return -zz[k];
+  };
+  if (factorization != "lower")
+    std::fill(w.begin(), w.end(), 0.0);
+  if (factorization == "upper")
     // q = -r_q / (1 + D_r h);  z_u = A_s^-1 (r_u - B^T q)
-    PetscInt k = parts.nu;
-    for_each_cell(self->_cell_unknowns,
-                  [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
-    {
-      const double d = self->_split[part][i];
-      zz[k] = -rr[k] / (1 + d * self->_schur_h[part][i]);
-      for (std::size_t j = 0; j < g.size(); ++j)
-        if (!fixed[dofs[j]])
-          w[dofs[j]] -= g[j] * zz[k];
-      ++k;
-    });
-  }
+    apply_B_and_BT<false, true>(self->_cell_unknowns, {}, w, parts.nu, schur);
   else
   {
-    // x1 = A_s^-1 r_u;  q = (D_r B x1 - r_q) / (1 + D_r h);  full: z_u = A_s^-1 (r_u - B^T q),
+    // x1 = A_s^-1 r_u;  q as above;  full: z_u = A_s^-1 (r_u - B^T q),
     // lower: z_u = x1 (x1 lands in z_u; the full factor's second solve overwrites it)
     soft_solve(self->_part_in, self->_part_out);
     self->to_full(self->_part_out);
     std::span<const double> x1 = self->_work.array();
-    apply_B_and_BT(self->_cell_unknowns, x1, w, parts.nu,
-                   [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
+    if (factorization == "lower")
     {
-      const double d = self->_split[part][i];
-      zz[k] = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
-      return -zz[k];
-    });
-    if (self->_split_factorization == "lower")
+      apply_B_and_BT<true, false>(self->_cell_unknowns, x1, w, parts.nu, schur);
       return 0;
+    }
+    apply_B_and_BT<true, true>(self->_cell_unknowns, x1, w, parts.nu, schur);
   }
   self->_work2.scatter_rev(std::plus<double>());
   VecCopy(self->_part_in, self->_soft_r);
