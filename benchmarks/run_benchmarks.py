@@ -28,7 +28,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             and run (apt: --apt-seconds, timed on a fresh machine)
   kappa     preconditioners against the penalty: COMBI isometric F-bar, kappa = 10 ...
             10^4, MUMPS / GAMG / GAMG with SOR levels / BoomerAMG for systems / the
-            penalty split (gmres-schur; full, lower, upper factor); n = 1 on one rank
+            penalty split (gmres-schur; full, lower, upper factor; lower with A_s^-1
+            by MUMPS, a diagnosis); n = 1 on one rank
             and n = 2 on two (--kappa-refinements, --kappa-candidates, --kappas); and
             Taylor-Hood with its Schur field split, n = 1 only
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
@@ -63,7 +64,7 @@ import time
 import report
 import stiffsoft
 import taylor_hood
-from report import LINE_SEARCHES
+from report import KAPPA_CANDIDATES, LINE_SEARCHES
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -540,23 +541,6 @@ def phase_fbar(args, records):
         records.put("fbar", r["name"], r)
 
 
-# Preconditioners against the penalty (issue 18): which of the standard ones for nearly
-# incompressible elasticity keeps the Krylov count flat in kappa and n.  Name -> (linear
-# solver, PETSc options); MUMPS is the reference F33.
-KAPPA_CANDIDATES = {
-    "MUMPS": ("lu", ()),
-    "GAMG": ("gmres-gamg", ()),
-    "GAMG, SOR levels": ("gmres-gamg", ("-mg_levels_pc_type sor",
-                                        "-mg_levels_pc_sor_diagonal_shift 1e-8")),
-    "BoomerAMG, systems": ("gmres-hypre", ("-pc_hypre_boomeramg_numfunctions 3",
-                                           "-pc_hypre_boomeramg_nodal_coarsen 6",
-                                           "-pc_hypre_boomeramg_strong_threshold 0.6")),
-    # the block factorisation named: the first kappa runs predate the lower one
-    "penalty split": ("gmres-schur", ("-penalty_split_factorization full",)),
-    "penalty split, lower": ("gmres-schur", ("-penalty_split_factorization lower",)),
-    "penalty split, upper": ("gmres-schur", ("-penalty_split_factorization upper",)),
-    "Taylor-Hood, Schur split": ("gmres-schur", ()),
-}
 # Candidates on another element than F-bar: element options, refinements run (n = 2 has
 # 418,693 unknowns) and the n = 1 timeout in place of --kappa-timeout.  Taylor-Hood's
 # Schur split is PETSc's field split on (u | theta, p), the inf-sup stable pair.
