@@ -155,6 +155,19 @@ RUNS = {
                       "_penalty_split_factorizationupper",
     "kpu2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
                       "_penalty_split_factorizationupper",
+    # the lower factor with one SSOR sweep per level as GAMG's smoother
+    "kps_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
+              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
+    "kps_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
+              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
+    "kps2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
+              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
+    "kps2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
+              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
+    "kps4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
+              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
+    "kps4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
+              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
     # the lower factor with A_s^-1 exact (MUMPS): the diagonal Schur approximation alone
     "kpx_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
               "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
@@ -593,6 +606,13 @@ KAPPA_CANDIDATES = {
     "penalty split": ("gmres-schur", ("-penalty_split_factorization full",)),
     "penalty split, lower": ("gmres-schur", ("-penalty_split_factorization lower",)),
     "penalty split, upper": ("gmres-schur", ("-penalty_split_factorization upper",)),
+    # the lower factor with one SSOR sweep per level as GAMG's smoother on A_s (the
+    # shift: on two ranks some level has a zero diagonal entry)
+    "penalty split, lower, SOR levels": ("gmres-schur", ("-penalty_split_factorization lower",
+                                                         "-soft_mg_levels_ksp_type richardson",
+                                                         "-soft_mg_levels_pc_type sor",
+                                                         "-soft_mg_levels_pc_sor_diagonal_shift 1e-8",
+                                                         "-soft_mg_levels_ksp_max_it 1")),
     # a diagnosis, not a solver: the lower factor with A_s^-1 exact (MUMPS) in place of
     # the V-cycle, which leaves only the diagonal Schur approximation's error
     "penalty split, lower, exact A_s": ("gmres-schur", ("-penalty_split_factorization lower",
