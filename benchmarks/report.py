@@ -606,8 +606,9 @@ KAPPA_CANDIDATES = {
     "penalty split": ("gmres-schur", ("-penalty_split_factorization full",)),
     "penalty split, lower": ("gmres-schur", ("-penalty_split_factorization lower",)),
     "penalty split, upper": ("gmres-schur", ("-penalty_split_factorization upper",)),
-    # the lower factor with one SSOR sweep per level as GAMG's smoother on A_s (the
-    # shift: on two ranks some level has a zero diagonal entry)
+    # the lower factor with one SSOR sweep per level as GAMG's smoother on A_s (without
+    # the shift the first V-cycle fails on two ranks; a zero diagonal entry on some level,
+    # we suppose)
     "penalty split, lower, SOR levels": ("gmres-schur", ("-penalty_split_factorization lower",
                                                          "-soft_mg_levels_ksp_type richardson",
                                                          "-soft_mg_levels_pc_type sor",

@@ -28,8 +28,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             and run (apt: --apt-seconds, timed on a fresh machine)
   kappa     preconditioners against the penalty: COMBI isometric F-bar, kappa = 10 ...
             10^4, MUMPS / GAMG / GAMG with SOR levels / BoomerAMG for systems / the
-            penalty split (gmres-schur; full, lower, upper factor; lower with A_s^-1
-            by MUMPS, a diagnosis); n = 1 on one rank
+            penalty split (gmres-schur; full, lower, upper factor; lower with SSOR
+            levels; lower with A_s^-1 by MUMPS, a diagnosis); n = 1 on one rank
             and n = 2 on two (--kappa-refinements, --kappa-candidates, --kappas); and
             Taylor-Hood with its Schur field split, n = 1 only
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
