@@ -31,6 +31,7 @@ Adding a study, e.g. a "shoulder" scaling study saved in results.json as
      (ctest benchmarks_report fails while BENCHMARKS.md differs from a fresh report).
 """
 import argparse
+import itertools
 import json
 import math
 import os
@@ -188,6 +189,15 @@ RUNS = {
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                            "_penalty_split_factorizationlower",
+    # the references (phase reference): n = 3 and 6 with the n = 4 runs' settings
+    "kpl3_split_k1000": "kappa_combi_isometric_hex1fbar_n3_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
+                      "_penalty_split_factorizationlower",
+    "kpl6_split_k1000": "kappa_combi_isometric_hex1fbar_n6_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
+                      "_penalty_split_factorizationlower",
+    "kpl3_split_free_k1000": "kappa_combi_free_hex1fbar_n3_dt0.05_gmres-schur_np2_rtol0.0001"
+                           "_kappa1000_penalty_split_factorizationlower",
+    "kpl6_split_free_k1000": "kappa_combi_free_hex1fbar_n6_dt0.05_gmres-schur_np2_rtol0.0001"
+                           "_kappa1000_penalty_split_factorizationlower",
     # Q2: the reference of the map, its quadrature variants, kappa = 100
     "q2_iso": "combi_isometric_hex2_n1_dt0.05_lu_np1",
     "q2_free": "combi_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
@@ -352,7 +362,13 @@ def make_helpers(res):
             "shoulder": lambda size, solver="lu", ranks=1: shoulder_run(raw, size, solver,
                                                                        ranks),
             "shoulder_step_time": shoulder_step_time, "shoulder_core_share": shoulder_core_share,
-            "richardson": lambda *runs, key: richardson(*(r[key] for r in runs)),
+            "reference": lambda case, meshes=(2, 4, 6): reference_extrapolation(res, case,
+                                                                                meshes),
+            "reference_spread": lambda case: reference_spread(res, case),
+            "reference_triplets": lambda case: reference_triplets(res, case),
+            "cell_size": cell_size, **reference_values(res),
+            "richardson": lambda *runs, key: richardson(*(r[key] for r in runs),
+                                                        h=[cell_size(r) for r in runs]),
             "stiff_soft": lambda config, contrast=None, study="stiff_soft": stiff_soft_run(
                 raw, config, contrast, study),
             "cantilever": lambda element, refinement: cantilever_run(raw, element, refinement),
@@ -555,18 +571,17 @@ def newton_table(res):
 
 @table
 def fbar_accuracy_table(res):
-    """F-bar against plain Q1, errors against Q2 n = 1 (preset kappa)."""
-    ref_iso, ref_free = res.run(RUNS["q2_iso"]), res.run(RUNS["q2_free"])
+    """F-bar against plain Q1 and Q2, errors against the map's references (preset kappa)."""
+    ref_iso, ref_free = reference_values(res)["ref_iso"], reference_values(res)["ref_free"]
     rows = []
     for element, iso, free in (("Q1", "q1_iso", "q1_free"), ("**Q1 F-bar**", "fb_iso", "fb_free"),
                                ("Q1", "q1n2_iso", "q1n2_free"),
                                ("**Q1 F-bar**", "fb2_iso", "fb2_free"),
-                               ("Q2 (reference)", "q2_iso", "q2_free")):
+                               ("Q2", "q2_iso", "q2_free")):
         i, f = res.run(RUNS[iso]), res.run(RUNS[free])
-        reference = iso == "q2_iso"
         rows.append([element, i["n"], f"{i['unknowns']:,}", f"{i['F33']:,.1f}",
-                     "-" if reference else fmt(rel(i, ref_iso), "+.2%"), f"{f['epsilon']:.5f}",
-                     "-" if reference else fmt(shortening(f, ref_free), "+.2%"),
+                     fmt(rel(i, ref_iso), "+.2%"), f"{f['epsilon']:.5f}",
+                     fmt(shortening(f, ref_free), "+.2%"),
                      f"{i['wall_time']:,.1f} / {f['wall_time']:,.1f}",
                      fmt(i["volume_change"], "+.2%")])
     return md_table(["element", "n", "unknowns", "F33 [mN]", "error", "epsilon",
@@ -744,43 +759,145 @@ def kappa100_table(res):
                      "shortening vs F-bar n = 4", "isometric", "free"], rows)
 
 
-def richardson(coarse, medium, fine, ratio=2.0, safety=1.25):
-    """Richardson extrapolation through three meshes refined by `ratio`: the observed
-    order p, the extrapolated value and Roache's grid convergence index of the finest
-    mesh (safety factor 1.25 for three meshes), or the reason there is none."""
+def richardson(coarse, medium, fine, ratio=2.0, safety=1.25, h=None):
+    """Richardson extrapolation through three meshes of one family, f = f_0 + C h^p: the
+    observed order p, the extrapolated f_0 and Roache's grid convergence index of the
+    finest mesh (safety factor 1.25 for three meshes), or the reason there is none.  The
+    mesh sizes h (coarse, medium, fine) default to a constant refinement ratio."""
+    h = h or (ratio ** 2, ratio, 1.0)
     d_coarse, d_fine = coarse - medium, medium - fine
     if d_fine == 0 or d_coarse / d_fine <= 0:
         return {"verdict": "oscillating"}
-    if d_coarse / d_fine <= 1:
-        return {"verdict": "not converging (differences do not shrink)"}
-    p = math.log(d_coarse / d_fine) / math.log(ratio)
-    correction = d_fine / (ratio ** p - 1)
+    # (h1^p - h2^p) / (h2^p - h3^p) grows with p from its p -> 0 limit
+    change_ratio = lambda p: (h[0] ** p - h[1] ** p) / (h[1] ** p - h[2] ** p)
+    target = d_coarse / d_fine
+    low, high = 1e-6, 20.0
+    if target <= change_ratio(low):
+        return {"verdict": "no positive order (the changes shrink by less than the mesh "
+                           "sizes' ratio allows)" if target > 1 else
+                           "not converging (differences do not shrink)"}
+    if target >= change_ratio(high):
+        return {"verdict": "order above 20"}
+    for _ in range(200):
+        p = 0.5 * (low + high)
+        low, high = (p, high) if change_ratio(p) < target else (low, p)
+    constant = d_fine / (h[1] ** p - h[2] ** p)
+    correction = constant * h[2] ** p
     return {"verdict": "monotone", "p": p, "value": fine - correction,
-            "gci": safety * abs(correction / fine)}
+            "gci": safety * abs(correction / fine),
+            "at": lambda size: fine - correction + constant * size ** p}
+
+
+def cell_size(run):
+    """The mesh size of a fusiform run up to a common factor: (cells)^(-1/3)."""
+    return run["cells"] ** (-1.0 / 3.0)
 
 
 @table
 def richardson_table(res):
-    """F-bar n = 1, 2, 4 at kappa = 100 and 1000: Richardson."""
+    """F-bar at kappa = 100 and 1000: Richardson through n = 1, 2, 4 and, for F33 at the
+    preset kappa, through the similar meshes n = 2, 4, 6 (h from the cell count)."""
     rows = []
-    for label, names, value in (
-            ("F33 [mN], kappa = 100", ("fb_iso_k100", "fb2_iso_k100", "fb4_iso_k100"),
-             lambda r: r["F33"]),
-            ("shortening 1 - epsilon, kappa = 100",
-             ("fb_free_k100", "fb2_free_k100_gamg_np2", "fb4_free_k100"),
-             lambda r: 1 - r["epsilon"]),
-            ("F33 [mN], kappa = 1000", ("fb_iso", "fb2_iso", "kpl4_split_k1000"),
-             lambda r: r["F33"]),
-            ("shortening 1 - epsilon, kappa = 1000",
-             ("fb_free", "fb2_free", "kpl4_split_free_k1000"), lambda r: 1 - r["epsilon"])):
-        v = [value(res.run(RUNS[n])) for n in names]
-        x = richardson(*v)
-        rows.append([label] + [fmt(y, ",.6g") for y in v]
+    f33, one_minus_epsilon = (lambda r: r["F33"]), (lambda r: 1 - r["epsilon"])
+    for label, meshes, names, value in (
+            ("F33 [mN], kappa = 100", "1, 2, 4",
+             ("fb_iso_k100", "fb2_iso_k100", "fb4_iso_k100"), f33),
+            ("shortening 1 - epsilon, kappa = 100", "1, 2, 4",
+             ("fb_free_k100", "fb2_free_k100_gamg_np2", "fb4_free_k100"), one_minus_epsilon),
+            ("F33 [mN], kappa = 1000", "1, 2, 4", ("fb_iso", "fb2_iso", "kpl4_split_k1000"),
+             f33),
+            ("shortening 1 - epsilon, kappa = 1000", "1, 2, 4",
+             ("fb_free", "fb2_free", "kpl4_split_free_k1000"), one_minus_epsilon),
+            ("**F33 [mN], kappa = 1000**", "**2, 4, 6**",
+             ("fb2_iso", "kpl4_split_k1000", "kpl6_split_k1000"), f33)):
+        runs = [res.run(RUNS[n]) for n in names]
+        v = [value(r) for r in runs]
+        x = richardson(*v, h=[cell_size(r) for r in runs])
+        rows.append([label, meshes] + [fmt(y, ",.6g") for y in v]
                     + [fmt(v[0] - v[1], ".3g"), fmt(v[1] - v[2], ".3g"),
                        fmt(x.get("p"), ".2f"), fmt(x.get("value"), ",.6g"),
                        fmt(x["gci"], ".2%") if "gci" in x else x["verdict"]])
-    return md_table(["quantity", "n = 1", "n = 2", "n = 4", "change 1 -> 2", "change 2 -> 4",
-                     "observed order p", "extrapolated", "error bar of n = 4 (GCI)"], rows)
+    return md_table(["quantity", "meshes n", "coarse", "medium", "fine", "change 1",
+                     "change 2", "observed order p", "extrapolated",
+                     "error bar of the finest (GCI)"], rows)
+
+
+# the reference family's runs beyond the map's own (points of the map at the preset kappa)
+REFERENCE_POINTS = ("kpl3_split_k1000", "kpl4_split_k1000", "kpl6_split_k1000",
+                    "kpl3_split_free_k1000", "kpl4_split_free_k1000", "kpl6_split_free_k1000")
+REFERENCE_SEQUENCE = ((1, "fb_iso", "fb_free"), (2, "fb2_iso", "fb2_free"),
+                      (3, "kpl3_split_k1000", "kpl3_split_free_k1000"),
+                      (4, "kpl4_split_k1000", "kpl4_split_free_k1000"),
+                      (6, "kpl6_split_k1000", "kpl6_split_free_k1000"))
+
+
+def reference_extrapolation(res, case, meshes=(2, 4, 6)):
+    """F33 (isometric) or epsilon (free) extrapolated through three of the refinements
+    (by default the similar meshes n = 2, 4, 6)."""
+    column, key = (1, "F33") if case == "isometric" else (2, "epsilon")
+    runs = [res.run(RUNS[row[column]]) for row in REFERENCE_SEQUENCE if row[0] in meshes]
+    return richardson(*(r[key] for r in runs), h=[cell_size(r) for r in runs])
+
+
+def reference_values(res):
+    """The map's references for the template: ref_iso, F33 extrapolated through n = 2, 4,
+    6, and ref_free, epsilon of F-bar n = 4 (the finest free run: n = 6 free was stopped in
+    its first step); none without phase reference's runs (then a placeholder naming them
+    fails with its line)."""
+    try:
+        return {"ref_iso": reference_extrapolation(res, "isometric")["value"],
+                "ref_free": res.run(RUNS["kpl4_split_free_k1000"])["epsilon"]}
+    except KeyError:
+        return {}
+
+
+def reference_triplets(res, case):
+    """The other triplets' extrapolations as text, e.g. "n = 2, 3, 4: 34,400 mN"."""
+    unit = (lambda v: f"{v:,.0f} mN") if case == "isometric" else (lambda v: f"{v:.5f}")
+    return "; ".join(f"n = {m[0]}, {m[1]}, {m[2]}: "
+                     + (unit(x["value"]) if "value" in x else x["verdict"])
+                     for m, x in reference_spread(res, case)["triplets"])
+
+
+def reference_spread(res, case):
+    """How far the extrapolations through the other triplets of n = 2, 3, 4, 6 (h from
+    the cell count, n = 3 off the family) lie from the family's: {"triplets": [(meshes,
+    result)], "spread": the largest relative distance of a converging one}."""
+    family = reference_extrapolation(res, case)["value"]
+    triplets = [(m, reference_extrapolation(res, case, m))
+                for m in itertools.combinations((2, 3, 4, 6), 3) if m != (2, 4, 6)]
+    values = [x["value"] for _, x in triplets if "value" in x]
+    return {"triplets": triplets,
+            "spread": max(abs(v / family - 1) for v in values) if values else None}
+
+
+@table
+def reference_table(res):
+    """F-bar by refinement at the preset kappa: F33 against the law fitted through n = 2,
+    4, 6; epsilon and its change from the next coarser mesh (n = 6 free: stopped)."""
+    law = reference_extrapolation(res, "isometric")
+    finest = cell_size(res.run(RUNS["kpl6_split_k1000"]))
+    solver = lambda r: ("MUMPS" if r["solver"] == "lu" else r.get("candidate", r["solver"])) \
+        + f", {r['ranks']} rank" + ("s" if r["ranks"] > 1 else "")
+    rows, previous = [], None
+    for n, iso_alias, free_alias in REFERENCE_SEQUENCE:
+        iso, free = res.run(RUNS[iso_alias]), res.run(RUNS[free_alias])
+        h = cell_size(iso)
+        done = free.get("completed", True)
+        free_wall = f"{free['wall_time']:,.0f}" if done else \
+            f"stopped at {free['elapsed'] / 60:.0f} min"
+        rows.append([n, f"{iso['cells']:,}", f"{iso['unknowns']:,}", fmt(h / finest, ".3f"),
+                     "yes" if n % 2 == 0 else "no",
+                     fmt(iso["F33"], ",.1f"), fmt(iso["F33"] - law["at"](h), "+.1f"),
+                     fmt(free["epsilon"], ".5f") if done else "-",
+                     fmt(shortening(free, previous), "+.3%") if done and previous else "-",
+                     solver(iso), f"{iso['wall_time']:,.0f} / {free_wall}",
+                     f"{iso['peak_rss_MiB']:,.0f} / "
+                     + (f"{free['peak_rss_MiB']:,.0f}" if done else "-")])
+        previous = free if done else previous
+    return md_table(["n", "cells", "unknowns", "h / h(n = 6)", "of the family", "F33 [mN]",
+                     "F33 - law [mN]", "epsilon", "shortening change from the row above",
+                     "solver", "wall isometric / free [s]", "peak RSS / process [MiB]"], rows)
 
 
 @table
@@ -813,10 +930,10 @@ def accuracy_levels(analysis):
         for level in ACCURACY_LEVELS:
             ok = [p for p in pts if p["error"] <= level]
             best = min(ok, key=lambda p: p["wall_time"]) if ok else None
-            ref_name = analysis["reference"].get(case, {}).get("name", "-")
-            levels.append([case, f"{level * 100:g} %",
-                           best["label"] if best else
-                           f"none but the reference ({ref_name}, own error unknown)",
+            ref = analysis["reference"].get(case, {})
+            none = (f"none (the reference is {ref['name']})" if ref.get("extrapolated") else
+                    f"none but the reference ({ref.get('name', '-')}, own error unknown)")
+            levels.append([case, f"{level * 100:g} %", best["label"] if best else none,
                            fmt(best["wall_time"], ".1f") if best else "-",
                            fmt(best["error"] * 100, ".3g") if best else "-"])
     return levels
@@ -829,7 +946,9 @@ def map_tables(analysis):
              fmt(p.get("cpu_time"), ".1f"), p.get("newton_iterations"),
              p.get("cutbacks"), fmt(p["loadavg"], ".2f")]
             for p in sorted(analysis["points"], key=lambda p: (p["case"], p["wall_time"]))]
-    refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g})"
+    refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g}"
+                     + (f", order {v['order']:.2f}, GCI of n = 6 {fmt(v['gci_finest'], '.3%')})"
+                        if v.get("extrapolated") else ")")
                      for c, v in analysis["reference"].items())
     return ("Reference: " + refs + "\n\n"
             + md_table(["case", "setting", "unknowns", "value", "error [%]", "wall [s]",

@@ -34,6 +34,10 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             Taylor-Hood with its Schur field split, n = 1 only
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
             (full factor at linear rtol 1e-6, lower at 1e-4, lower with SSOR levels at 1e-4)
+  reference  the references of F33 and epsilon: F-bar at n = 3 and 6, isometric and free,
+            with the n = 4 runs' settings (--reference-refinements; n = 2, 4, 6 are one
+            family of similar meshes, n = 3 checks the extrapolation; n = 6 has 1.3 M
+            unknowns)
   taylor-hood  the bending cantilever, Q2 against Taylor-Hood (MUMPS, Schur split) by
             refinement and the Schur split against lambda / mu (taylor_hood.py);
             map-taylor-hood: Taylor-Hood on the map, n = 1; map-taylor-hood-n2: its
@@ -52,6 +56,7 @@ records in WORK/records.json, so the report can be rebuilt at any time.
 """
 import argparse
 import datetime
+import itertools
 import json
 import math
 import os
@@ -604,6 +609,18 @@ def phase_kappa_n4(args, records):
                       timeout=args.map_timeout)
 
 
+def phase_reference(args, records):
+    """References of F33 and epsilon by Richardson extrapolation need meshes of one
+    family: the fusiform's radial count ceil(2.5 n) is proportional to n only for even
+    n, so n = 2, 4, 6 are similar meshes (h in the ratios 3 : 1.5 : 1) and n = 3 lies
+    off the family, a check of the extrapolated law rather than one of its points."""
+    for n, case in itertools.product(args.reference_refinements, ("isometric", "free")):
+        kappa_run(args, records, "penalty split, lower", case=case, n=n, np=2,
+                  solver="gmres-schur", sets=("kappa=1000",),
+                  petsc=KAPPA_CANDIDATES["penalty split, lower"][1], rtol=1e-4,
+                  timeout=args.map_timeout * max(1, n / 4) ** 3)
+
+
 def phase_restore(args, records):
     """Seed WORK with the records saved in --results (runs of earlier sessions), so that
     the report keeps them; GAMG runs from before the near-null-space fixes (2026-12-01:
@@ -872,19 +889,58 @@ def kappa100_runs(records):
     return {r["name"]: r for _, r in runs.values()}
 
 
+def extrapolated_references(records):
+    """F33 and epsilon at the preset kappa extrapolated through F-bar n = 2, 4, 6 (phase
+    reference; similar meshes), for the cases whose three runs exist: {case: reference}."""
+    by_name = {r["name"]: r for phase in records.values() if isinstance(phase, dict)
+               for r in phase.values() if isinstance(r, dict) and "name" in r}
+    out = {}
+    for case, quantity, aliases in (
+            ("isometric", "F33", ("fb2_iso", "kpl4_split_k1000", "kpl6_split_k1000")),
+            ("free", "epsilon", ("fb2_free", "kpl4_split_free_k1000", "kpl6_split_free_k1000"))):
+        runs = [by_name.get(report.RUNS[a]) for a in aliases]
+        if not all(r and r.get("completed") for r in runs):
+            continue
+        x = report.richardson(*(r[quantity] for r in runs),
+                              h=[report.cell_size(r) for r in runs])
+        if "value" in x:
+            # Roache's GCI of n = 6 in the map's measure (epsilon: of the shortening)
+            scale = 1 - x["value"] if quantity == "epsilon" else x["value"]
+            out[case] = {"name": "F-bar n = 2, 4, 6 extrapolated", "quantity": quantity,
+                         "value": x["value"], "order": x["p"],
+                         "gci_finest": 1.25 * abs(runs[-1][quantity] - x["value"]) / abs(scale),
+                         "runs": [r["name"] for r in runs], "extrapolated": True}
+    return out
+
+
 def map_analysis(records, reference_choice, sets=()):
-    """Errors against the finest completed reference per case, among the runs at
-    the penalty `sets` (() = preset; other penalties are drawn as model changes)."""
+    """Errors against the reference per case, among the runs at the penalty `sets` (() =
+    preset; other penalties are drawn as model changes): at the preset penalty the value
+    extrapolated through F-bar n = 2, 4, 6 when phase reference has run, else the finest
+    completed run (phase reference's runs are points and candidates too)."""
     if sets:
         runs = list(kappa100_runs(records).values())
+        extrapolated = {}
     else:
         runs = [r for r in records.get("map", {}).values() if r.get("completed")]
+        extrapolated = {} if reference_choice else extrapolated_references(records)
+        family = [r for r in records.get("kappa", {}).values()
+                  if r["name"] in {report.RUNS[a] for a in report.REFERENCE_POINTS}]
+        runs += [r for r in family if r.get("completed")]
+        for case in ("isometric", "free"):
+            if case not in extrapolated:
+                print(f"  map, {case}: no extrapolated reference (no completed n = 2, 4, 6"
+                      f"{' or --reference given' if reference_choice else ''}); the finest "
+                      "run is the reference", flush=True)
     out = {"points": [], "reference": {}, "sets": list(sets)}
     for case, quantity in (("isometric", "F33"), ("free", "epsilon")):
-        # reference: the finest discretisation (most unknowns; Q2 first)
-        # (Taylor-Hood is a point on the map, not the reference: the map's errors stay
-        # against the same Q2 run as before it existed)
-        candidates = [r for r in runs if r["case"] == case and r["sets"] == list(sets)
+        if case in extrapolated:
+            out["reference"][case] = extrapolated[case]
+            add_map_points(out, runs, case, quantity, None, extrapolated[case]["value"], sets)
+            continue
+        # without an extrapolation: the finest discretisation (most unknowns; Q2 first;
+        # Taylor-Hood stays a point, so that its error is shown)
+        candidates = [r for r in runs if r["case"] == case and preset(r["sets"]) == list(sets)
                       and not any("--quadrature-degree" in a for a in r.get("petsc", []))
                       and r["element"] != "Q2TH"]
         if reference_choice:
@@ -896,31 +952,40 @@ def map_analysis(records, reference_choice, sets=()):
                                              r.get("fbar", False), -r["dt"]))
         out["reference"][case] = {"name": ref["name"], "quantity": quantity,
                                   "value": ref[quantity]}
-        for r in runs:
-            if r["case"] != case or r["name"] == ref["name"]:
-                continue
-            value = r[quantity]
-            # epsilon: error of the shortening 1 - epsilon (what the study measures)
-            if quantity == "epsilon":
-                err = abs(value - ref[quantity]) / abs(1 - ref[quantity])
-            else:
-                err = abs(value - ref[quantity]) / abs(ref[quantity])
-            label = f"{r['element']} n={r['n']} dt={r['dt']:g}" + "".join(
-                " " + s for s in r["sets"] + r.get("petsc", [])) + (
-                f" ({r['solver']}, {r['ranks']} ranks)" if r["solver"] != "lu" or r["ranks"] > 1
-                else "")
-            out["points"].append({"case": case, "label": label, "name": r["name"],
-                                  "petsc": r.get("petsc", []),
-                                  "value": value, "error": err, "wall_time": r["wall_time"],
-                                  "cpu_time": r.get("cpu_time"),
-                                  "newton_iterations": r.get("newton_iterations"),
-                                  "cutbacks": r.get("cutbacks"),
-                                  "unknowns": r.get("unknowns"), "element": r["element"],
-                                  "n": r["n"], "dt": r["dt"], "sets": r["sets"],
-                                  "model_change": r["sets"] != list(sets),
-                                  "loadavg": r["loadavg_before"][0]})
+        add_map_points(out, runs, case, quantity, ref["name"], ref[quantity], sets)
     out["levels"] = report.accuracy_levels(out)
     return out
+
+
+def preset(sets):
+    """A run's --set list without the preset kappa that some phases name explicitly."""
+    return [x for x in sets if x != "kappa=1000"]
+
+
+def add_map_points(out, runs, case, quantity, ref_name, reference, sets):
+    """The runs of a case but the reference run (None: an extrapolated reference) as
+    points of the map: value, error against the reference value; the preset kappa named
+    explicitly is no model change."""
+    for r in runs:
+        if r["case"] != case or r["name"] == ref_name:
+            continue
+        value = r[quantity]
+        # epsilon: error of the shortening 1 - epsilon (what the study measures)
+        err = abs(value - reference) / abs(1 - reference if quantity == "epsilon" else reference)
+        label = f"{r['element']} n={r['n']} dt={r['dt']:g}" + "".join(
+            " " + s for s in r["sets"] + r.get("petsc", [])) + (
+            f" ({r['solver']}, {r['ranks']} ranks)" if r["solver"] != "lu" or r["ranks"] > 1
+            else "")
+        out["points"].append({"case": case, "label": label, "name": r["name"],
+                              "petsc": r.get("petsc", []),
+                              "value": value, "error": err, "wall_time": r["wall_time"],
+                              "cpu_time": r.get("cpu_time"),
+                              "newton_iterations": r.get("newton_iterations"),
+                              "cutbacks": r.get("cutbacks"),
+                              "unknowns": r.get("unknowns"), "element": r["element"],
+                              "n": r["n"], "dt": r["dt"], "sets": r["sets"],
+                              "model_change": preset(r["sets"]) != list(sets),
+                              "loadavg": r["loadavg_before"][0]})
 
 
 def pareto(points):
@@ -945,11 +1010,19 @@ def plot_map(analysis, path, runs):
         if case not in analysis["reference"]:
             continue
         ref = analysis["reference"][case]
-        ref_run = next(r for r in runs if r["name"] == ref["name"])
-        ax.loglog(ref_run["wall_time"], floor, "*", color="k", ms=14)
-        ax.annotate(f"reference {ref_run['element']} n={ref_run['n']}",
-                    (ref_run["wall_time"], floor), fontsize=7, xytext=(4, 4),
-                    textcoords="offset points")
+        if ref.get("extrapolated"):
+            # the reference is no run: its finest run's error bar (GCI) as a band
+            ax.axhspan(floor, ref["gci_finest"], color="0.9", zorder=0,
+                       label=f"error bar of F-bar n = 6 (GCI {ref['gci_finest']:.2%})")
+            against = f"{ref['name']} ({ref['quantity']} = {ref['value']:.6g})"
+        else:
+            ref_run = next(r for r in runs if r["name"] == ref["name"])
+            ax.loglog(ref_run["wall_time"], floor, "*", color="k", ms=14)
+            ax.annotate(f"reference {ref_run['element']} n={ref_run['n']}",
+                        (ref_run["wall_time"], floor), fontsize=7, xytext=(4, 4),
+                        textcoords="offset points")
+            against = (f"{ref_run['element']} n={ref_run['n']} "
+                       f"({ref['quantity']} = {ref['value']:.6g})")
         for p in pts:
             colour = "tab:red" if p["model_change"] else (
                 "tab:blue" if p["dt"] == 0.05 else "tab:gray")
@@ -974,7 +1047,7 @@ def plot_map(analysis, path, runs):
             ax.axhline(level, color="0.6", lw=0.8, ls=":")
             ax.text(ax.get_xlim()[0] if False else 0.99, level, name, fontsize=7,
                     transform=ax.get_yaxis_transform(), ha="right", va="bottom")
-        ax.set_title(f"COMBI {title} at t = 0.15 s ({penalty})\nerror against {ref['name']}",
+        ax.set_title(f"COMBI {title} at t = 0.15 s ({penalty})\nerror against {against}",
                      fontsize=9)
         ax.set_xlabel("wall time [s] (2-core machine; load and ranks: results.json)")
         ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
@@ -1067,7 +1140,7 @@ def update_results(args, data):
     if data.get("map"):
         analysis = map_analysis(data, args.reference)
         plot_map(analysis, os.path.join(ROOT, "docs", "images", "speed_accuracy.png"),
-                 list(data["map"].values()))
+                 list(data["map"].values()) + list(data.get("kappa", {}).values()))
         analysis_100 = map_analysis(data, None, sets=("kappa=100",))
         if analysis_100["reference"]:
             plot_map(analysis_100, os.path.join(ROOT, "docs", "images",
@@ -1140,6 +1213,7 @@ def main():
     parser.add_argument("--kappa-candidates", nargs="+", default=list(KAPPA_CANDIDATES),
                         choices=list(KAPPA_CANDIDATES))
     parser.add_argument("--kappa-refinements", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--reference-refinements", type=int, nargs="+", default=[3, 6])
     parser.add_argument("--kappa-timeout", type=float, default=300,
                         help="seconds for an n = 1 run of phase kappa (n^3 times that at n)")
     parser.add_argument("--reference", default=None,
@@ -1164,7 +1238,7 @@ def main():
               "linesearch": phase_linesearch, "fresh": phase_fresh, "stiffsoft": stiffsoft.phase,
               "stiffsoft-blocks": lambda a, r: stiffsoft.phase(a, r, ("blocks",)),
               "stiffsoft-shoulder": lambda a, r: stiffsoft.phase(a, r, ("shoulder",)),
-              "kappa": phase_kappa, "kappa-n4": phase_kappa_n4,
+              "kappa": phase_kappa, "kappa-n4": phase_kappa_n4, "reference": phase_reference,
               "taylor-hood": taylor_hood.phase,
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:

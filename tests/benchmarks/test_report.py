@@ -32,3 +32,24 @@ def test_report_equals_committed_page(tmp_path):
             "page, then run `/usr/bin/python3 benchmarks/run_benchmarks.py report` and commit "
             "BENCHMARKS.md:\n" + "\n".join(lines[:40])
             + (f"\n... ({len(lines) - 40} more lines)" if len(lines) > 40 else ""))
+
+
+def test_richardson_recovers_a_power_law():
+    # f = f0 + C h^p sampled on meshes in the ratios 3 : 1.5 : 1 (the fusiform's n = 2,
+    # 4, 6) and 4 : 2 : 1: the extrapolation must return p, f0 and the law between them
+    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+    from report import richardson
+    for h, p, f0, c in (((3.0, 1.5, 1.0), 1.1, 34_400.0, 120.0),
+                        ((4.0, 2.0, 1.0), 2.0, 1.0, -0.5),
+                        ((3.0, 1.5, 1.0), 0.3, -2.0, 7.0)):
+        law = lambda size: f0 + c * size ** p
+        x = richardson(*(law(s) for s in h), h=h)
+        assert x["verdict"] == "monotone"
+        assert abs(x["p"] - p) < 1e-9 and abs(x["value"] - f0) < 1e-9 * max(1, abs(f0))
+        assert abs(x["at"](2.0) - law(2.0)) < 1e-8 * max(1, abs(f0))
+        assert abs(x["gci"] - 1.25 * abs(c * h[2] ** p / law(h[2]))) < 1e-9
+    # differences that do not shrink, and an oscillation, have no extrapolation
+    assert richardson(3.0, 2.0, 1.0, h=(3.0, 1.5, 1.0))["verdict"].startswith("not converging")
+    # changes that shrink (120, then 80) but by less than h's ratios allow at any p > 0
+    assert richardson(210.0, 90.0, 10.0, h=(3.0, 1.5, 1.0))["verdict"].startswith("no positive")
+    assert richardson(1.0, 2.0, 1.0)["verdict"] == "oscillating"
