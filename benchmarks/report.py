@@ -572,7 +572,8 @@ def newton_table(res):
 @table
 def fbar_accuracy_table(res):
     """F-bar against plain Q1 and Q2, errors against the map's references (preset kappa)."""
-    ref_iso, ref_free = reference_values(res)["ref_iso"], reference_values(res)["ref_free"]
+    refs = reference_values(res)
+    ref_iso, ref_free = refs["ref_iso"], refs["ref_free"]
     rows = []
     for element, iso, free in (("Q1", "q1_iso", "q1_free"), ("**Q1 F-bar**", "fb_iso", "fb_free"),
                                ("Q1", "q1n2_iso", "q1n2_free"),
@@ -825,20 +826,27 @@ def richardson_table(res):
                      "GCI of the finest mesh"], rows)
 
 
-# the reference family's runs beyond the map's own (points of the map at the preset kappa)
-REFERENCE_POINTS = ("kpl3_split_k1000", "kpl4_split_k1000", "kpl6_split_k1000",
-                    "kpl3_split_free_k1000", "kpl4_split_free_k1000", "kpl6_split_free_k1000")
+# F-bar at the preset kappa by refinement n: the isometric and the free run's aliases
 REFERENCE_SEQUENCE = ((1, "fb_iso", "fb_free"), (2, "fb2_iso", "fb2_free"),
                       (3, "kpl3_split_k1000", "kpl3_split_free_k1000"),
                       (4, "kpl4_split_k1000", "kpl4_split_free_k1000"),
                       (6, "kpl6_split_k1000", "kpl6_split_free_k1000"))
+# the runs of phase reference and kappa-n4 that are points of the map at the preset kappa
+REFERENCE_POINTS = tuple(alias for n, iso, free in REFERENCE_SEQUENCE if n > 2
+                         for alias in (iso, free))
+
+
+def reference_aliases(case, meshes=(2, 4, 6)):
+    """The aliases of the runs of a case at the refinements `meshes` (by default the
+    similar meshes n = 2, 4, 6, the force's reference family)."""
+    column = 1 if case == "isometric" else 2
+    return [row[column] for row in REFERENCE_SEQUENCE if row[0] in meshes]
 
 
 def reference_extrapolation(res, case, meshes=(2, 4, 6)):
-    """F33 (isometric) or epsilon (free) extrapolated through three of the refinements
-    (by default the similar meshes n = 2, 4, 6)."""
-    column, key = (1, "F33") if case == "isometric" else (2, "epsilon")
-    runs = [res.run(RUNS[row[column]]) for row in REFERENCE_SEQUENCE if row[0] in meshes]
+    """F33 (isometric) or epsilon (free) extrapolated through three of the refinements."""
+    key = "F33" if case == "isometric" else "epsilon"
+    runs = [res.run(RUNS[alias]) for alias in reference_aliases(case, meshes)]
     return richardson(*(r[key] for r in runs), h=[cell_size(r) for r in runs])
 
 
@@ -880,7 +888,7 @@ def reference_table(res):
     4, 6; epsilon and its change from the next coarser mesh (n = 6 free: stopped)."""
     law = reference_extrapolation(res, "isometric")
     finest = cell_size(res.run(RUNS["kpl6_split_k1000"]))
-    solver = lambda r: ("MUMPS" if r["solver"] == "lu" else r.get("candidate", r["solver"])) \
+    solver = lambda r: (SOLVER_NAMES.get(r["solver"]) or r.get("candidate", r["solver"])) \
         + f", {r['ranks']} rank" + ("s" if r["ranks"] > 1 else "")
     rows, previous = [], None
     for n, iso_alias, free_alias in REFERENCE_SEQUENCE:

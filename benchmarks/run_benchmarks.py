@@ -891,27 +891,22 @@ def kappa100_runs(records):
 
 def extrapolated_references(records):
     """F33 at the preset kappa extrapolated through F-bar n = 2, 4, 6 (phase reference;
-    similar meshes), if the three runs exist: {case: reference}."""
+    similar meshes), if the three runs exist: {"isometric": reference}. epsilon's
+    reference stays a run, F-bar n = 4 (BENCHMARKS.md.in): the free n = 6 run did not
+    finish its first step in an hour."""
     by_name = {r["name"]: r for phase in records.values() if isinstance(phase, dict)
                for r in phase.values() if isinstance(r, dict) and "name" in r}
-    out = {}
-    # epsilon's reference is F-bar n = 4 (BENCHMARKS.md.in): the free n = 6 run did not
-    # finish its first step in an hour
-    for case, quantity, aliases in (
-            ("isometric", "F33", ("fb2_iso", "kpl4_split_k1000", "kpl6_split_k1000")),):
-        runs = [by_name.get(report.RUNS[a]) for a in aliases]
-        if not all(r and r.get("completed") for r in runs):
-            continue
-        x = report.richardson(*(r[quantity] for r in runs),
-                              h=[report.cell_size(r) for r in runs])
-        if "value" in x:
-            # Roache's GCI of n = 6 in the map's measure (epsilon: of the shortening)
-            scale = 1 - x["value"] if quantity == "epsilon" else x["value"]
-            out[case] = {"name": "F-bar n = 2, 4, 6 extrapolated", "quantity": quantity,
-                         "value": x["value"], "order": x["p"],
-                         "gci_finest": 1.25 * abs(runs[-1][quantity] - x["value"]) / abs(scale),
-                         "runs": [r["name"] for r in runs], "extrapolated": True}
-    return out
+    runs = [by_name.get(report.RUNS[a]) for a in report.reference_aliases("isometric")]
+    if not all(r and r.get("completed") for r in runs):
+        return {}
+    x = report.richardson(*(r["F33"] for r in runs), h=[report.cell_size(r) for r in runs])
+    if "value" not in x:
+        return {}
+    return {"isometric": {"name": "F-bar n = 2, 4, 6 extrapolated", "quantity": "F33",
+                          "value": x["value"], "order": x["p"],
+                          # Roache's GCI of n = 6, relative to the reference as the map is
+                          "gci_finest": 1.25 * abs(runs[-1]["F33"] - x["value"]) / abs(x["value"]),
+                          "runs": [r["name"] for r in runs], "extrapolated": True}}
 
 
 def map_analysis(records, reference_choice, sets=()):
@@ -928,11 +923,10 @@ def map_analysis(records, reference_choice, sets=()):
         family = [r for r in records.get("kappa", {}).values()
                   if r["name"] in {report.RUNS[a] for a in report.REFERENCE_POINTS}]
         runs += [r for r in family if r.get("completed")]
-        for case in ("isometric",):
-            if case not in extrapolated:
-                print(f"  map, {case}: no extrapolated reference (no completed n = 2, 4, 6"
-                      f"{' or --reference given' if reference_choice else ''}); the finest "
-                      "run is the reference", flush=True)
+        if "isometric" not in extrapolated:
+            print("  map, isometric: no extrapolated reference (no completed n = 2, 4, 6"
+                  f"{' or --reference given' if reference_choice else ''}); the finest run "
+                  "is the reference", flush=True)
     out = {"points": [], "reference": {}, "sets": list(sets)}
     for case, quantity in (("isometric", "F33"), ("free", "epsilon")):
         if case in extrapolated:
