@@ -87,4 +87,17 @@ void NonlinearSolver::add_restricted(const la::Vector<double>& w, Vec x)
   }
 }
 
+void NonlinearSolver::multiply_reduced(Vec y)
+{
+  if (!_full_tmp)
+    MatCreateVecs(_A, nullptr, &_full_tmp);
+  Vec wv;
+  const auto map = _work.map();
+  VecCreateMPIWithArray(map->comm(), 1, _work.bs() * map->size_local(), PETSC_DETERMINE,
+                        _work.array().data(), &wv);
+  MatMult(_A, wv, _full_tmp);
+  VecDestroy(&wv);
+  MatMultTranspose(_constraint->T(), _full_tmp, y);
+}
+
 } // namespace muscle

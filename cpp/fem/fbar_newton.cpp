@@ -35,9 +35,10 @@ void NonlinearSolver::create_cell_unknowns()
   for (Vec* v : {&_rhs, &_sol, &_tmp})
     VecDuplicate(_x, v);
   KSPCreate(comm, &_inner);
-  if (_constraint)
+  if (_constraint and _options.linear_solver != "gmres-schur")
   {
-    // P^T A P needs an assembled A for its symbolic phase
+    // P^T A P needs an assembled A for its symbolic phase (the penalty split forms
+    // its T^T A_s T at its first Jacobian)
     _problem.u()->x()->scatter_fwd();
     for (auto& cells : _cell_unknowns)
       cells->initialise();
@@ -191,7 +192,9 @@ void NonlinearSolver::assemble_three_field_jacobian()
   if (!std::isfinite(_matrix_norm))
     return;
   Mat K = _A;
-  if (_constraint)
+  // the penalty split solves with T^T A_s T only: T^T A T would double the memory of
+  // a constrained run (the free fusiform, n = 6, did not get through its first step)
+  if (_constraint and !_soft)
   {
     const bool first = !_A_red;
     reduce(_A_red, first);
@@ -281,8 +284,11 @@ PetscErrorCode NonlinearSolver::extended_multiply(Mat J, Vec v, Vec y)
   VecGetArray(self->_tmp, &t);
   std::copy(V.u.begin(), V.u.end(), t);
   VecRestoreArray(self->_tmp, &t);
-  MatMult(self->_constraint ? self->_A_red : self->_A, self->_tmp, self->_sol);
   self->to_full(self->_tmp);
+  if (self->_constraint and !self->_A_red)
+    self->multiply_reduced(self->_sol);
+  else
+    MatMult(self->_constraint ? self->_A_red : self->_A, self->_tmp, self->_sol);
   std::span<double> w2 = self->_work2.mutable_array();
   std::fill(w2.begin(), w2.end(), 0.0);
   PetscScalar* yy;

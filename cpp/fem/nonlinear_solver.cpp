@@ -237,9 +237,15 @@ NonlinearSolver::~NonlinearSolver()
   if (_term_F)
     VecDestroy(&_term_F);
   VecDestroy(&_F_full);
+  VecDestroy(&_full_tmp);
 }
 
-Mat NonlinearSolver::system_matrix() const { return _constraint ? _A_red : _A; }
+Mat NonlinearSolver::system_matrix()
+{
+  if (_constraint and !_A_red)
+    reduce(nullptr, true);
+  return _constraint ? _A_red : _A;
+}
 
 Mat NonlinearSolver::assemble_tangent()
 {

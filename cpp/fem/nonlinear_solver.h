@@ -136,8 +136,9 @@ public:
   /// (callers restore their own copy).
   NewtonReport solve();
 
-  /// The last assembled system matrix (reduced if constrained).
-  Mat system_matrix() const;
+  /// The last assembled system matrix (reduced if constrained; formed on demand
+  /// where the penalty split keeps only the reduced soft matrix).
+  Mat system_matrix();
 
   /// The full tangent at the current displacement (fixed dofs: unit rows), e.g.
   /// for natural frequencies.  InputError with F-bar cell unknowns, whose
@@ -204,6 +205,8 @@ private:
   void to_full(Vec du);
   /// x_red += T^T w_owned (or x += w_owned)
   void add_restricted(const dolfinx::la::Vector<double>& w, Vec x);
+  /// y = T^T A (T x) with T x already in _work: the reduced product without T^T A T.
+  void multiply_reduced(Vec y);
 
   // fbar_newton.cpp: three-field F-bar (cell unknowns next to u in the SNES vector)
   void create_cell_unknowns();
@@ -291,7 +294,8 @@ private:
 
   SNES _snes = nullptr;
   Mat _A = nullptr;       ///< full Jacobian
-  Mat _A_red = nullptr;   ///< T^T A T when constrained
+  Mat _A_red = nullptr;   ///< T^T A T when constrained (the penalty split forms none)
+  Vec _full_tmp = nullptr; ///< full layout, owned part: T^T A T x as three products
   Mat _ptap = nullptr;    ///< T^T A T recomputed after A gained nonzeros, copied into _A_red
   int _reduced_bs = 1;    ///< block size of _A_red (GAMG: 3 on whole nodes)
   MatNullSpace _near_null_space = nullptr; ///< rigid-body modes of the matrix GAMG sees
