@@ -31,6 +31,7 @@ Adding a study, e.g. a "shoulder" scaling study saved in results.json as
      (ctest benchmarks_report fails while BENCHMARKS.md differs from a fresh report).
 """
 import argparse
+import collections
 import itertools
 import json
 import math
@@ -311,6 +312,12 @@ def make_helpers(res):
         return [r["loadavg_before"][0] for key in keys for r in raw.get(key) or []
                 if r.get("loadavg_before")]
 
+    def cpus():
+        """The CPUs that runs recorded (field cpu), with their counts, as text."""
+        counts = collections.Counter(r["cpu"] for r in res.runs.values() if r.get("cpu"))
+        return "; ".join(f"{cpu}: {count} runs" for cpu, count in counts.most_common()) \
+            or "none"
+
     def line_search_total(method):
         return sum(r["newton_iterations"] for r in raw["line_search_runs"]
                    if r["method"] == method and r.get("completed"))
@@ -354,7 +361,7 @@ def make_helpers(res):
 
     return {"rel": rel, "shortening": shortening, "exponent": exponent,
             "spread": spread, "verdict": verdict, "asm": asm, "instr": instr,
-            "kernel_per_point": kernel_per_point, "loads": loads, "quad": quad, "knob": knob,
+            "kernel_per_point": kernel_per_point, "loads": loads, "cpus": cpus, "quad": quad, "knob": knob,
             "line_search": line_search, "line_search_total": line_search_total,
             "line_search_outliers": line_search_outliers,
             "line_search_failed": line_search_failed, "line_search_default": line_search_default,
@@ -796,8 +803,8 @@ def cell_size(run):
 
 @table
 def richardson_table(res):
-    """F-bar at kappa = 100 and 1000: Richardson through n = 1, 2, 4 and, for F33 at the
-    preset kappa, through the similar meshes n = 2, 4, 6 (h from the cell count)."""
+    """F-bar at kappa = 100 and 1000: Richardson through n = 1, 2, 4 and, at the preset
+    kappa, through the similar meshes n = 2, 4, 6 (h from the cell count)."""
     rows = []
     f33, one_minus_epsilon = (lambda r: r["F33"]), (lambda r: 1 - r["epsilon"])
     for label, meshes, names, value in (
@@ -810,7 +817,10 @@ def richardson_table(res):
             ("shortening 1 - epsilon, kappa = 1000", "1, 2, 4",
              ("fb_free", "fb2_free", "kpl4_split_free_k1000"), one_minus_epsilon),
             ("**F33 [mN], kappa = 1000**", "**2, 4, 6**",
-             ("fb2_iso", "kpl4_split_k1000", "kpl6_split_k1000"), f33)):
+             ("fb2_iso", "kpl4_split_k1000", "kpl6_split_k1000"), f33),
+            ("**shortening 1 - epsilon, kappa = 1000**", "**2, 4, 6**",
+             ("fb2_free", "kpl4_split_free_k1000", "kpl6_split_free_k1000"),
+             one_minus_epsilon)):
         runs = [res.run(RUNS[n]) for n in names]
         v = [value(r) for r in runs]
         x = richardson(*v, h=[cell_size(r) for r in runs])
@@ -843,28 +853,35 @@ def reference_aliases(case, meshes=(2, 4, 6)):
     return [row[column] for row in REFERENCE_SEQUENCE if row[0] in meshes]
 
 
+def reference_quantity(case):
+    """What a case's reference extrapolates: F33, or the free shortening 1 - epsilon (the
+    map's free errors are relative to the shortening, so are the GCI and the spread)."""
+    return (lambda r: r["F33"]) if case == "isometric" else (lambda r: 1 - r["epsilon"])
+
+
 def reference_extrapolation(res, case, meshes=(2, 4, 6)):
-    """F33 (isometric) or epsilon (free) extrapolated through three of the refinements."""
-    key = "F33" if case == "isometric" else "epsilon"
+    """F33 (isometric) or the shortening 1 - epsilon (free) extrapolated through three of
+    the refinements."""
+    value = reference_quantity(case)
     runs = [res.run(RUNS[alias]) for alias in reference_aliases(case, meshes)]
-    return richardson(*(r[key] for r in runs), h=[cell_size(r) for r in runs])
+    return richardson(*(value(r) for r in runs), h=[cell_size(r) for r in runs])
 
 
 def reference_values(res):
-    """The map's references for the template: ref_iso, F33 extrapolated through n = 2, 4,
-    6, and ref_free, epsilon of F-bar n = 4 (the finest free run: n = 6 free was stopped in
-    its first step); none without phase reference's runs (then a placeholder naming them
-    fails with its line)."""
+    """The map's references for the template, extrapolated through F-bar n = 2, 4, 6:
+    ref_iso (F33) and ref_free (epsilon, from the shortening); none without phase
+    reference's runs (then a placeholder naming them fails with its line)."""
     try:
         return {"ref_iso": reference_extrapolation(res, "isometric")["value"],
-                "ref_free": res.run(RUNS["kpl4_split_free_k1000"])["epsilon"]}
+                "ref_free": 1 - reference_extrapolation(res, "free")["value"]}
     except KeyError:
         return {}
 
 
 def reference_triplets(res, case):
     """The other triplets' extrapolations as text, e.g. "n = 2, 3, 4: 34,400 mN"."""
-    unit = (lambda v: f"{v:,.0f} mN") if case == "isometric" else (lambda v: f"{v:.5f}")
+    unit = (lambda v: f"{v:,.0f} mN") if case == "isometric" else \
+        (lambda v: f"epsilon {1 - v:.5f}")
     return "; ".join(f"n = {m[0]}, {m[1]}, {m[2]}: "
                      + (unit(x["value"]) if "value" in x else x["verdict"])
                      for m, x in reference_spread(res, case)["triplets"])
@@ -884,31 +901,28 @@ def reference_spread(res, case):
 
 @table
 def reference_table(res):
-    """F-bar by refinement at the preset kappa: F33 against the law fitted through n = 2,
-    4, 6; epsilon and its change from the next coarser mesh (n = 6 free: stopped)."""
+    """F-bar by refinement at the preset kappa: F33 and the shortening 1 - epsilon against
+    the laws fitted through n = 2, 4, 6 (zero there by construction)."""
     law = reference_extrapolation(res, "isometric")
+    free_law = reference_extrapolation(res, "free")
     finest = cell_size(res.run(RUNS["kpl6_split_k1000"]))
     solver = lambda r: (SOLVER_NAMES.get(r["solver"]) or r.get("candidate", r["solver"])) \
         + f", {r['ranks']} rank" + ("s" if r["ranks"] > 1 else "")
-    rows, previous = [], None
+    rows = []
     for n, iso_alias, free_alias in REFERENCE_SEQUENCE:
         iso, free = res.run(RUNS[iso_alias]), res.run(RUNS[free_alias])
         h = cell_size(iso)
-        done = free.get("completed", True)
-        free_wall = f"{free['wall_time']:,.0f}" if done else \
-            f"stopped at {free['elapsed'] / 60:.0f} min"
         rows.append([n, f"{iso['cells']:,}", f"{iso['unknowns']:,}", fmt(h / finest, ".3f"),
                      "yes" if n % 2 == 0 else "no",
                      fmt(iso["F33"], ",.1f"), fmt(iso["F33"] - law["at"](h), "+.1f"),
-                     fmt(free["epsilon"], ".5f") if done else "-",
-                     fmt(shortening(free, previous), "+.3%") if done and previous else "-",
-                     solver(iso), f"{iso['wall_time']:,.0f} / {free_wall}",
-                     f"{iso['peak_rss_MiB']:,.0f} / "
-                     + (f"{free['peak_rss_MiB']:,.0f}" if done else "-")])
-        previous = free if done else previous
+                     fmt(free["epsilon"], ".5f"),
+                     fmt((1 - free["epsilon"]) / free_law["at"](cell_size(free)) - 1, "+.3%"),
+                     solver(iso), f"{iso['wall_time']:,.0f} / {free['wall_time']:,.0f}",
+                     f"{iso['peak_rss_MiB']:,.0f} / {free['peak_rss_MiB']:,.0f}",
+                     " / ".join(sorted({r.get("cpu") or "not recorded" for r in (iso, free)}))])
     return md_table(["n", "cells", "unknowns", "h / h(n = 6)", "of the family", "F33 [mN]",
-                     "F33 - law [mN]", "epsilon", "shortening change from the row above",
-                     "solver", "wall isometric / free [s]", "peak RSS / process [MiB]"], rows)
+                     "F33 - law [mN]", "epsilon", "shortening vs law", "solver",
+                     "wall isometric / free [s]", "peak RSS / process [MiB]", "CPU"], rows)
 
 
 @table

@@ -234,7 +234,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
               **near_null_space_markers(solver, case),
               "command": " ".join(shlex.quote(c) for c in command[5:]),
               "elapsed": elapsed, "loadavg_before": before, "loadavg_after": after,
-              "binary_mtime": binary_mtime(args),
+              "binary_mtime": binary_mtime(args), "cpu": machine_info().get("Model name"),
               "returncode": returncode, "completed": False}
     if os.path.exists(summary_path) and os.path.getmtime(summary_path) >= start - 1:
         with open(summary_path) as f:
@@ -890,23 +890,27 @@ def kappa100_runs(records):
 
 
 def extrapolated_references(records):
-    """F33 at the preset kappa extrapolated through F-bar n = 2, 4, 6 (phase reference;
-    similar meshes), if the three runs exist: {"isometric": reference}. epsilon's
-    reference stays a run, F-bar n = 4 (BENCHMARKS.md.in): the free n = 6 run did not
-    finish its first step in an hour."""
+    """F33 and epsilon at the preset kappa extrapolated through F-bar n = 2, 4, 6 (phase
+    reference; similar meshes), for each case whose three runs exist: {case: reference}.
+    epsilon through the shortening 1 - epsilon, against which the map measures errors."""
     by_name = {r["name"]: r for phase in records.values() if isinstance(phase, dict)
                for r in phase.values() if isinstance(r, dict) and "name" in r}
-    runs = [by_name.get(report.RUNS[a]) for a in report.reference_aliases("isometric")]
-    if not all(r and r.get("completed") for r in runs):
-        return {}
-    x = report.richardson(*(r["F33"] for r in runs), h=[report.cell_size(r) for r in runs])
-    if "value" not in x:
-        return {}
-    return {"isometric": {"name": "F-bar n = 2, 4, 6 extrapolated", "quantity": "F33",
-                          "value": x["value"], "order": x["p"],
-                          # Roache's GCI of n = 6, relative to the reference as the map is
-                          "gci_finest": 1.25 * abs(runs[-1]["F33"] - x["value"]) / abs(x["value"]),
-                          "runs": [r["name"] for r in runs], "extrapolated": True}}
+    out = {}
+    for case, quantity in (("isometric", "F33"), ("free", "epsilon")):
+        runs = [by_name.get(report.RUNS[a]) for a in report.reference_aliases(case)]
+        if not all(r and r.get("completed") for r in runs):
+            continue
+        value = report.reference_quantity(case)
+        x = report.richardson(*(value(r) for r in runs), h=[report.cell_size(r) for r in runs])
+        if "value" not in x:
+            continue
+        limit = x["value"] if case == "isometric" else 1 - x["value"]
+        out[case] = {"name": "F-bar n = 2, 4, 6 extrapolated", "quantity": quantity,
+                     "value": limit, "order": x["p"],
+                     # Roache's GCI of n = 6, relative to the reference as the map is
+                     "gci_finest": 1.25 * abs(value(runs[-1]) / x["value"] - 1),
+                     "runs": [r["name"] for r in runs], "extrapolated": True}
+    return out
 
 
 def map_analysis(records, reference_choice, sets=()):
@@ -923,10 +927,11 @@ def map_analysis(records, reference_choice, sets=()):
         family = [r for r in records.get("kappa", {}).values()
                   if r["name"] in {report.RUNS[a] for a in report.REFERENCE_POINTS}]
         runs += [r for r in family if r.get("completed")]
-        if "isometric" not in extrapolated:
-            print("  map, isometric: no extrapolated reference (no completed n = 2, 4, 6"
-                  f"{' or --reference given' if reference_choice else ''}); the finest run "
-                  "is the reference", flush=True)
+        for case in ("isometric", "free"):
+            if case not in extrapolated:
+                print(f"  map, {case}: no extrapolated reference (no completed n = 2, 4, 6"
+                      f"{' or --reference given' if reference_choice else ''}); the finest "
+                      "run is the reference", flush=True)
     out = {"points": [], "reference": {}, "sets": list(sets)}
     for case, quantity in (("isometric", "F33"), ("free", "epsilon")):
         if case in extrapolated:
@@ -1044,10 +1049,10 @@ def plot_map(analysis, path, runs):
                     transform=ax.get_yaxis_transform(), ha="right", va="bottom")
         ax.set_title(f"COMBI {title} at t = 0.15 s ({penalty})\nerror against {against}",
                      fontsize=9)
-        ax.set_xlabel("wall time [s] (2-core machine; load and ranks: results.json)")
+        ax.set_xlabel("wall time [s] (2 cores; load, ranks, CPU: results.json)")
         ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
         ax.grid(True, which="both", lw=0.3)
-        ax.legend(fontsize=7, loc="center right")
+        ax.legend(fontsize=7, loc="lower left")
     fig.text(0.01, 0.01, "squares Q1, circles Q1 F-bar (Q1F), diamonds Q2, plus Q2 Taylor-Hood (Q2TH), triangles P1/P2; blue: dt = 0.05 s; grey: "
              "other time steps (end state is path-independent); red: penalty kappa (a model "
              "change, error = distance from the preset-kappa reference); qN: quadrature degree N; *: -snes_max_it 10",

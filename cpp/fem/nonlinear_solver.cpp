@@ -242,8 +242,13 @@ NonlinearSolver::~NonlinearSolver()
 
 Mat NonlinearSolver::system_matrix()
 {
-  if (_constraint and !_A_red)
+  if (_constraint and _soft)
+  {
+    // the penalty split keeps no T^T A T: formed from the last A on each call
+    MatDestroy(&_A_red);
+    MatDestroy(&_ptap);
     reduce(nullptr, true);
+  }
   return _constraint ? _A_red : _A;
 }
 

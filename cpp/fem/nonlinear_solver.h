@@ -105,8 +105,11 @@ public:
 /// evaluation point, so the tangent is exact at every iterate.  A non-finite
 /// residual or a kernel without admissible root is reported to SNES as a
 /// domain error (the line search then backtracks).
+struct NonlinearSolverTestAccess;
+
 class NonlinearSolver
 {
+  friend struct NonlinearSolverTestAccess; // the tests reach the SNES and its matrix
 public:
   NonlinearSolver(MuscleProblem& problem,
                   std::vector<std::shared_ptr<const dolfinx::fem::DirichletBC<double>>> bcs,
@@ -136,8 +139,8 @@ public:
   /// (callers restore their own copy).
   NewtonReport solve();
 
-  /// The last assembled system matrix (reduced if constrained; formed on demand
-  /// where the penalty split keeps only the reduced soft matrix).
+  /// The last assembled system matrix (reduced if constrained; the penalty split,
+  /// which keeps only the reduced soft matrix, forms T^T A T anew on each call).
   Mat system_matrix();
 
   /// The full tangent at the current displacement (fixed dofs: unit rows), e.g.
@@ -295,7 +298,7 @@ private:
   SNES _snes = nullptr;
   Mat _A = nullptr;       ///< full Jacobian
   Mat _A_red = nullptr;   ///< T^T A T when constrained (the penalty split forms none)
-  Vec _full_tmp = nullptr; ///< full layout, owned part: T^T A T x as three products
+  Vec _full_tmp = nullptr; ///< full layout, owned part: A (T x) of multiply_reduced
   Mat _ptap = nullptr;    ///< T^T A T recomputed after A gained nonzeros, copied into _A_red
   int _reduced_bs = 1;    ///< block size of _A_red (GAMG: 3 on whole nodes)
   MatNullSpace _near_null_space = nullptr; ///< rigid-body modes of the matrix GAMG sees
