@@ -969,7 +969,7 @@ def map_tables(analysis):
     rows = [[p["case"], p["label"], p.get("unknowns"), fmt(p["value"], ".6g"),
              fmt(p["error"] * 100, ".3g"), fmt(p["wall_time"], ".1f"),
              fmt(p.get("cpu_time"), ".1f"), p.get("newton_iterations"),
-             p.get("cutbacks"), fmt(p["loadavg"], ".2f")]
+             p.get("cutbacks"), fmt(p["loadavg"], ".2f"), p.get("cpu") or "not recorded"]
             for p in sorted(analysis["points"], key=lambda p: (p["case"], p["wall_time"]))]
     refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g}"
                      + (f", order {v['order']:.2f}, GCI of n = 6 {fmt(v['gci_finest'], '.3%')})"
@@ -977,7 +977,8 @@ def map_tables(analysis):
                      for c, v in analysis["reference"].items())
     return ("Reference: " + refs + "\n\n"
             + md_table(["case", "setting", "unknowns", "value", "error [%]", "wall [s]",
-                        "CPU [s]", "Newton its", "cutbacks", "load (1 min, at start)"], rows)
+                        "CPU [s]", "Newton its", "cutbacks", "load (1 min, at start)",
+                        "CPU"], rows)
             + "\n\nCheapest setting per accuracy level:\n\n"
             + md_table(["case", "accuracy", "cheapest setting", "wall [s]", "error [%]"],
                        accuracy_levels(analysis)))

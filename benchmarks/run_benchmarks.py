@@ -985,7 +985,7 @@ def add_map_points(out, runs, case, quantity, ref_name, reference, sets):
                               "unknowns": r.get("unknowns"), "element": r["element"],
                               "n": r["n"], "dt": r["dt"], "sets": r["sets"],
                               "model_change": preset(r["sets"]) != list(sets),
-                              "loadavg": r["loadavg_before"][0]})
+                              "loadavg": r["loadavg_before"][0], "cpu": r.get("cpu")})
 
 
 def pareto(points):
