@@ -64,16 +64,26 @@ void NonlinearSolver::to_full(Vec du)
   }
 }
 
+namespace
+{
+/// A PETSc vector over w's owned entries, sharing w's array (read only; destroy it after).
+Vec owned_part(const la::Vector<double>& w)
+{
+  Vec v;
+  const auto map = w.map();
+  VecCreateMPIWithArray(map->comm(), 1, w.bs() * map->size_local(), PETSC_DETERMINE,
+                        w.array().data(), &v);
+  return v;
+}
+} // namespace
+
 void NonlinearSolver::add_restricted(const la::Vector<double>& w, Vec x)
 {
   PetscInt n;
   VecGetLocalSize(x, &n);
   if (_constraint)
   {
-    Vec wv;
-    const auto map = w.map();
-    VecCreateMPIWithArray(map->comm(), 1, w.bs() * map->size_local(), PETSC_DETERMINE,
-                          w.array().data(), &wv);
+    Vec wv = owned_part(w);
     MatMultTransposeAdd(_constraint->T(), wv, x, x);
     VecDestroy(&wv);
   }
@@ -91,10 +101,7 @@ void NonlinearSolver::multiply_reduced(Vec y)
 {
   if (!_full_tmp)
     MatCreateVecs(_A, nullptr, &_full_tmp);
-  Vec wv;
-  const auto map = _work.map();
-  VecCreateMPIWithArray(map->comm(), 1, _work.bs() * map->size_local(), PETSC_DETERMINE,
-                        _work.array().data(), &wv);
+  Vec wv = owned_part(_work);
   MatMult(_A, wv, _full_tmp);
   VecDestroy(&wv);
   MatMultTranspose(_constraint->T(), _full_tmp, y);
