@@ -122,6 +122,7 @@ RUNS = {
     "p2_free": "combi_free_tet2_n1_dt0.05_lu_np1_snes_max_it10",
     # the kappa study (F-bar, n = 1, GMRES rtol 1e-6)
     "kp_lu_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_lu_np1_kappa1000",
+    "kp_lu_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_lu_np1_kappa10000",
     "kp_gamg_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000",
     "kp_sor_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000"
                     "_mg_levels_pc_typesor_mg_levels_pc_sor_diagonal_shift1e-8",
@@ -181,6 +182,22 @@ RUNS = {
               "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
     "kpx2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
               "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
+    # the sparse Schur approximation (PETSc's "selfp"), with one V-cycle each and both exact
+    "kpq_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
+              "_penalty_split_factorizationlower_penalty_split_schursparse",
+    "kpq_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
+              "_penalty_split_factorizationlower_penalty_split_schursparse",
+    "kpq_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
+              "_penalty_split_factorizationlower_penalty_split_schursparse",
+    "kpxq_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
+              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps"
+              "_penalty_split_schursparse_schur_pc_typelu_schur_pc_factor_mat_solver_typemumps",
+    "kpxq_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
+              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps"
+              "_penalty_split_schursparse_schur_pc_typelu_schur_pc_factor_mat_solver_typemumps",
+    "kpxq_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
+              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps"
+              "_penalty_split_schursparse_schur_pc_typelu_schur_pc_factor_mat_solver_typemumps",
     # Taylor-Hood with its Schur field split in the kappa study (n = 1, one rank)
     "kth_k10": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10",
     "kth_k100": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100",
@@ -642,6 +659,14 @@ KAPPA_CANDIDATES = {
     "penalty split, lower, exact A_s": ("gmres-schur", ("-penalty_split_factorization lower",
                                                         "-soft_pc_type lu",
                                                         "-soft_pc_factor_mat_solver_type mumps")),
+    # the Schur complement approximated by the sparse cell matrix I + D_r B diag(A_s)^-1 B^T
+    # (one GAMG V-cycle) in place of its diagonal; and both solves exact, a diagnosis
+    "penalty split, lower, sparse Schur": ("gmres-schur", ("-penalty_split_factorization lower",
+                                                           "-penalty_split_schur sparse")),
+    "penalty split, lower, exact A_s, exact sparse Schur": (
+        "gmres-schur", ("-penalty_split_factorization lower", "-soft_pc_type lu",
+                        "-soft_pc_factor_mat_solver_type mumps", "-penalty_split_schur sparse",
+                        "-schur_pc_type lu", "-schur_pc_factor_mat_solver_type mumps")),
     "Taylor-Hood, Schur split": ("gmres-schur", ()),
 }
 

@@ -6,11 +6,13 @@
 // need fewer iterations under the preset penalty, the reason it exists.
 #include <common/errors.h>
 #include <fem/boundary.h>
+#include <fem/fbar_unknowns.h>
 #include <fem/muscle_problem.h>
 #include <fem/nonlinear_solver.h>
 #include <fem/uniform_constraint.h>
 #include <material/parameters.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <tuple>
@@ -324,14 +326,25 @@ class PenaltySplit : public ::testing::TestWithParam<std::tuple<bool, const char
 {
 };
 
-/// Sets -penalty_split_factorization for a scope (also when an assertion leaves it early).
-struct Factorisation
+/// Sets a PETSc option for a scope (also when an assertion leaves it early).
+struct ScopedOption
 {
-  explicit Factorisation(const char* name)
+  ScopedOption(const char* name, const char* value) : _name(name)
   {
-    PetscOptionsSetValue(nullptr, "-penalty_split_factorization", name);
+    PetscOptionsSetValue(nullptr, name, value);
   }
-  ~Factorisation() { PetscOptionsClearValue(nullptr, "-penalty_split_factorization"); }
+  ~ScopedOption() { PetscOptionsClearValue(nullptr, _name); }
+  ScopedOption(const ScopedOption&) = delete;
+  ScopedOption& operator=(const ScopedOption&) = delete;
+private:
+  const char* _name;
+};
+
+struct Factorisation : ScopedOption
+{
+  explicit Factorisation(const char* name) : ScopedOption("-penalty_split_factorization", name)
+  {
+  }
 };
 
 NewtonOptions split_options()
@@ -341,13 +354,19 @@ NewtonOptions split_options()
   return options;
 }
 
-/// The block lifted (or, constrained, moved) by 0.05, solved with the penalty split.
-NewtonReport solve_split(Block& block)
+/// The block lifted (or, constrained, moved) by 0.05, solved by `solver`.
+NewtonReport solve_split(Block& block, NonlinearSolver& solver)
 {
-  NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
   block.problem->set_time_factor(1.0);
   block.lift->value = {0.05};
   return solver.solve();
+}
+
+/// The same with the penalty split.
+NewtonReport solve_split(Block& block)
+{
+  NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
+  return solve_split(block, solver);
 }
 
 /// The penalty split's Newton report on the lifted block at kappa, by factorisation.
@@ -394,6 +413,57 @@ namespace muscle
 struct NonlinearSolverTestAccess
 {
   static SNES snes(NonlinearSolver& solver) { return solver._snes; }
+  static void sparse_schur_solve(NonlinearSolver& solver, std::vector<double>& q)
+  {
+    solver.sparse_schur_solve(q.data());
+  }
+  /// S q with S = I + D_r B diag(A_s)^-1 B^T formed cell by cell from the cells'
+  /// linearisation, their removed penalty shares and the soft matrix's diagonal (one rank)
+  static std::vector<double> schur_product(NonlinearSolver& solver, const std::vector<double>& q)
+  {
+    Vec d;
+    MatCreateVecs(solver._A_soft, &d, nullptr);
+    MatGetDiagonal(solver._A_soft, d);
+    const PetscScalar* diagonal;
+    VecGetArrayRead(d, &diagonal);
+    std::vector<double> w(solver._work2.array().size(), 0.0), Sq;
+    for (int pass = 0; pass < 2; ++pass)
+    {
+      std::size_t k = 0;
+      for (std::size_t part = 0; part < solver._cell_unknowns.size(); ++part)
+      {
+        const FbarCellUnknowns& cells = *solver._cell_unknowns[part];
+        const auto& data = cells.linearisation();
+        for (std::size_t c = 0; c < data.K00.size(); ++c, ++k)
+        {
+          double Bw = 0;
+          for (std::size_t j = 0; j < data.n; ++j)
+          {
+            const std::int32_t dof = cells.cell_dofs()[c * data.n + j];
+            if (cells.fixed()[dof])
+              continue;
+            if (pass == 0)
+              w[dof] += data.g[c * data.n + j] * q[k];
+            else
+              Bw += data.g[c * data.n + j] * w[dof] / diagonal[dof];
+          }
+          if (pass == 1)
+            Sq.push_back(q[k] + solver._split[part][c] * Bw);
+        }
+      }
+    }
+    VecRestoreArrayRead(d, &diagonal);
+    VecDestroy(&d);
+    return Sq;
+  }
+  /// the cells whose penalty is partly removed from the soft matrix
+  static std::size_t split_cells(const NonlinearSolver& solver)
+  {
+    std::size_t count = 0;
+    for (const auto& part : solver._split)
+      count += std::count_if(part.begin(), part.end(), [](double r) { return r > 0; });
+    return count;
+  }
 };
 } // namespace muscle
 
@@ -487,6 +557,52 @@ TEST(PenaltySplitInput, AnUnknownFactorisationIsAnInputError)
   catch (const InputError& e)
   {
     EXPECT_NE(std::string(e.what()).find("allowed are lower, upper, full"), std::string::npos)
+        << e.what();
+  }
+}
+
+// The sparse Schur approximation (-penalty_split_schur sparse) S = I + D_r B diag(A_s)^-1 B^T
+// is solved through the assembled product I + C C^T, C = D_r^1/2 B diag(A_s)^-1/2, and a
+// rescaling (penalty_split.cpp).  Solved exactly (LU) it must invert S formed here cell by
+// cell, at an active state where most cells have a share removed.
+TEST(PenaltySplitSparseSchur, InvertsTheCellwiseComplement)
+{
+  int ranks;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  if (ranks > 1)
+    GTEST_SKIP() << "the cell-by-cell product is serial";
+  const ScopedOption sparse("-penalty_split_schur", "sparse");
+  const ScopedOption exact("-schur_pc_type", "lu");
+  Block block = make_block(Model("combi"), false, 10000.0);
+  NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
+  const NewtonReport report = solve_split(block, solver);
+  ASSERT_TRUE(report.converged) << report.reason;
+  // the split, the soft matrix and the cells' g are those of the last Jacobian
+  ASSERT_GT(NonlinearSolverTestAccess::split_cells(solver), 0u);
+
+  const std::size_t cells = 2 * 2 * 3;
+  std::vector<double> v(cells), q(cells);
+  for (std::size_t k = 0; k < cells; ++k)
+    v[k] = q[k] = std::sin(1.0 + k);
+  NonlinearSolverTestAccess::sparse_schur_solve(solver, q);
+  const std::vector<double> Sq = NonlinearSolverTestAccess::schur_product(solver, q);
+  ASSERT_EQ(Sq.size(), cells);
+  EXPECT_LT(max_abs_diff(Sq, v), 1e-10 * max_abs(v));
+  EXPECT_GT(max_abs_diff(q, v), 1e-3 * max_abs(v)) << "S is not the identity here";
+}
+
+TEST(PenaltySplitInput, AnUnknownSchurApproximationIsAnInputError)
+{
+  const ScopedOption chosen("-penalty_split_schur", "exact");
+  Block block = make_block(Model("combi"), false, 1000.0);
+  try
+  {
+    NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
+    ADD_FAILURE() << "no error for -penalty_split_schur exact";
+  }
+  catch (const InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("allowed are diagonal, sparse"), std::string::npos)
         << e.what();
   }
 }

@@ -208,10 +208,13 @@ NonlinearSolver::~NonlinearSolver()
   SNESDestroy(&_snes);
   KSPDestroy(&_inner);
   KSPDestroy(&_soft);
+  KSPDestroy(&_schur);
+  MatDestroy(&_schur_factor);
+  MatDestroy(&_schur_sym);
   MatDestroy(&_A_soft);
   MatDestroy(&_A_soft_red);
   MatDestroy(&_saddle);
-  for (Vec* v : {&_soft_r, &_saddle_b, &_saddle_x, &_part_in, &_part_out})
+  for (Vec* v : {&_soft_r, &_saddle_b, &_saddle_x, &_part_in, &_part_out, &_schur_rhs, &_schur_w})
     VecDestroy(v);
   MatDestroy(&_J_ext);
   for (Mat& M : _th_blocks)

@@ -269,6 +269,10 @@ private:
   int saddle_solve();
   static PetscErrorCode saddle_multiply(Mat M, Vec v, Vec y);
   static PetscErrorCode penalty_split_apply(PC pc, Vec r, Vec z);
+  /// _schur_factor and _schur_sym from the split and diag(A_s) (in _work)
+  void update_sparse_schur();
+  /// q <- S^-1 q (q: the cells' part, local) with S = I + D_r B diag(A_s)^-1 B^T
+  void sparse_schur_solve(PetscScalar* q);
   Mat _saddle = nullptr;   ///< (du, q) -> (A_s du + B^T q, D_r B du - q), shell
   Vec _saddle_b = nullptr, _saddle_x = nullptr;
   Vec _part_in = nullptr, _part_out = nullptr; ///< the du part of saddle vectors (no own array)
@@ -283,6 +287,14 @@ private:
   /// the block factorisation applied (-penalty_split_factorization): "lower" or "upper"
   /// (one V-cycle per Krylov iteration), "full" (two)
   std::string _split_factorization = "lower";
+  /// the Schur complement's approximation (-penalty_split_schur): "diagonal", the cells'
+  /// diagonal of I + D_r B diag(A_s)^-1 B^T, or "sparse", that matrix itself
+  std::string _split_schur = "diagonal";
+  Mat _schur_factor = nullptr; ///< C = D_r^1/2 B diag(A_s)^-1/2, cells x full layout
+  Mat _schur_sym = nullptr;    ///< I + C C^T
+  KSP _schur = nullptr;        ///< one V-cycle on _schur_sym (-schur_ options)
+  Vec _schur_rhs = nullptr, _schur_w = nullptr;
+  std::vector<double> _soft_diagonal; ///< diag(A_s), full layout with ghosts
 
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh

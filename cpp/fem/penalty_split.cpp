@@ -21,6 +21,10 @@
 // preset penalty and 10^4 converge where GAMG fails.  Scaling the q rows by 1/K00 made
 // the count flat on a small block but let GMRES stop with the condensed residual up to
 // kappa times the tolerance (more Newton iterations, failures at 10^4 on the fusiform).
+// `-penalty_split_schur sparse` keeps the whole cell matrix I + D_r B diag(A_s)^-1 B^T
+// (PETSc's "selfp"), which shares the exact complement's near-kernel B^T q ~ 0; measured,
+// it needs more Krylov iterations than its diagonal (BENCHMARKS.md): diag(A_s)^-1 is far
+// from A_s^-1 on smooth pressures.
 #include "nonlinear_solver.h"
 
 #include "../common/errors.h"
@@ -28,6 +32,7 @@
 #include "fbar_unknowns.h"
 
 #include <algorithm>
+#include <cmath>
 #include <dolfinx/la/petsc.h>
 
 using namespace dolfinx;
@@ -88,6 +93,28 @@ void apply_B_and_BT(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts,
   });
 }
 
+/// Reads the string option `name` into `value` if given; it must be one of `allowed`.
+void choice_option(const char* name, std::initializer_list<const char*> allowed,
+                   std::string& value)
+{
+  char given_value[256] = "";
+  PetscBool given = PETSC_FALSE;
+  PetscOptionsGetString(nullptr, nullptr, name, given_value, sizeof(given_value), &given);
+  if (!given)
+    return;
+  std::string list;
+  for (const char* a : allowed)
+  {
+    if (given_value == std::string(a))
+    {
+      value = a;
+      return;
+    }
+    list += std::string(list.empty() ? "" : ", ") + a;
+  }
+  throw InputError(std::string(name) + " " + given_value + ": allowed are " + list);
+}
+
 /// A saddle vector pair (read, write) with their du parts placed in `du_in`, `du_out`
 /// (vectors without arrays of their own) for the scope.
 struct SaddleParts
@@ -123,18 +150,9 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
   PetscOptionsGetReal(nullptr, nullptr, "-penalty_split_ratio", &_split_ratio, nullptr);
   if (!(_split_ratio > 0))
     throw InputError("-penalty_split_ratio must be > 0");
-  char value[256] = "";
-  PetscBool given = PETSC_FALSE;
-  PetscOptionsGetString(nullptr, nullptr, "-penalty_split_factorization", value, sizeof(value),
-                        &given);
-  if (given)
-  {
-    _split_factorization = value;
-    if (_split_factorization != "lower" and _split_factorization != "upper"
-        and _split_factorization != "full")
-      throw InputError("-penalty_split_factorization " + _split_factorization
-                       + ": allowed are lower, upper, full");
-  }
+  choice_option("-penalty_split_factorization", {"lower", "upper", "full"},
+                _split_factorization);
+  choice_option("-penalty_split_schur", {"diagonal", "sparse"}, _split_schur);
   KSPCreate(comm, &_soft);
   // -soft_pc_gamg_* etc. tune the multigrid of the soft matrix
   KSPSetOptionsPrefix(_soft, "soft_");
@@ -155,6 +173,18 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
     _split[part].assign(cells, 0.0);
     _schur_h[part].assign(cells, 0.0);
     nq += cells;
+  }
+  if (_split_schur == "sparse")
+  {
+    KSPCreate(comm, &_schur);
+    // -schur_pc_* tune the solve of the sparse Schur complement (a cell-by-cell matrix)
+    KSPSetOptionsPrefix(_schur, "schur_");
+    KSPSetType(_schur, KSPPREONLY);
+    KSPGetPC(_schur, &pc);
+    PCSetType(pc, PCGAMG);
+    KSPSetFromOptions(_schur);
+    VecCreateMPI(comm, nq, PETSC_DETERMINE, &_schur_rhs);
+    VecDuplicate(_schur_rhs, &_schur_w);
   }
   VecCreateMPI(comm, nu + nq, PETSC_DETERMINE, &_saddle_b);
   VecDuplicate(_saddle_b, &_saddle_x);
@@ -256,6 +286,100 @@ void NonlinearSolver::update_penalty_split()
         h += g[j] * g[j] / _work.array()[dofs[j]];
     _schur_h[part][i] = h;
   });
+  if (_split_schur == "sparse")
+    update_sparse_schur();
+}
+
+void NonlinearSolver::update_sparse_schur()
+{
+  // C = D_r^1/2 B diag(A_s)^-1/2 (free dofs only; explicit zeros keep the pattern fixed
+  // while cells gain or lose their removed share), then I + C C^T
+  const std::span<const double> d = _work.array(); // diag(A_s) from update_penalty_split
+  _soft_diagonal.assign(d.begin(), d.end());
+  ISLocalToGlobalMapping rows, cols;
+  MatGetLocalToGlobalMapping(_A, &rows, &cols);
+  PetscInt owned_dofs;
+  MatGetLocalSize(_A, &owned_dofs, nullptr);
+  PetscInt nq, first;
+  VecGetLocalSize(_schur_rhs, &nq);
+  VecGetOwnershipRange(_schur_rhs, &first, nullptr);
+  const bool create = !_schur_factor;
+  if (create)
+  {
+    std::vector<PetscInt> diagonal_nnz(nq, 0), off_nnz(nq, 0);
+    PetscInt k = 0;
+    for_each_cell(_cell_unknowns, [&](std::size_t, std::size_t, auto, auto dofs, auto fixed)
+    {
+      for (std::int32_t j : dofs)
+        if (!fixed[j])
+          ++(j < owned_dofs ? diagonal_nnz : off_nnz)[k];
+      ++k;
+    });
+    MatCreateAIJ(_problem.mesh()->comm(), nq, owned_dofs, PETSC_DETERMINE, PETSC_DETERMINE, 0,
+                 diagonal_nnz.data(), 0, off_nnz.data(), &_schur_factor);
+  }
+  std::vector<PetscInt> local, global;
+  std::vector<double> values;
+  PetscInt k = first;
+  for_each_cell(_cell_unknowns, [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
+  {
+    const double p = std::sqrt(_split[part][i]);
+    local.clear();
+    values.clear();
+    for (std::size_t j = 0; j < g.size(); ++j)
+      if (!fixed[dofs[j]])
+      {
+        local.push_back(dofs[j]);
+        values.push_back(p * g[j] / std::sqrt(d[dofs[j]]));
+      }
+    global.resize(local.size());
+    ISLocalToGlobalMappingApply(cols, local.size(), local.data(), global.data());
+    MatSetValues(_schur_factor, 1, &k, global.size(), global.data(), values.data(),
+                 INSERT_VALUES);
+    ++k;
+  });
+  MatAssemblyBegin(_schur_factor, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_schur_factor, MAT_FINAL_ASSEMBLY);
+  // formed anew: PETSc 3.18's reused C C^T kept stale values on two ranks (measured)
+  MatDestroy(&_schur_sym);
+  MatMatTransposeMult(_schur_factor, _schur_factor, MAT_INITIAL_MATRIX, PETSC_DEFAULT,
+                      &_schur_sym);
+  MatShift(_schur_sym, 1.0);
+  KSPSetOperators(_schur, _schur_sym, _schur_sym);
+}
+
+void NonlinearSolver::sparse_schur_solve(PetscScalar* q)
+{
+  // S = I + P^2 H with P = D_r^1/2, H = B diag(A_s)^-1 B^T, and S_sym = I + P H P:
+  // q <- q - P w with S_sym w = P H q (q's cells without a removed share stay as they are)
+  std::span<double> w = _work2.mutable_array();
+  std::fill(w.begin(), w.end(), 0.0);
+  apply_B_and_BT<false, true>(_cell_unknowns, {}, w, 0,
+                              [&](std::size_t, std::size_t, PetscInt k, double) { return q[k]; });
+  _work2.scatter_rev(std::plus<double>());
+  _work2.scatter_fwd();
+  for (std::size_t j = 0; j < w.size(); ++j)
+    w[j] /= _soft_diagonal[j];
+  PetscScalar* rhs;
+  VecGetArray(_schur_rhs, &rhs);
+  apply_B_and_BT<true, false>(_cell_unknowns, w, {}, 0,
+                              [&](std::size_t part, std::size_t i, PetscInt k, double Bw)
+  {
+    rhs[k] = std::sqrt(_split[part][i]) * Bw;
+    return 0.0;
+  });
+  VecRestoreArray(_schur_rhs, &rhs);
+  KSPSolve(_schur, _schur_rhs, _schur_w);
+  const PetscScalar* x;
+  VecGetArrayRead(_schur_w, &x);
+  PetscInt k = 0;
+  for (const auto& split : _split)
+    for (const double removed : split)
+    {
+      q[k] -= std::sqrt(removed) * x[k];
+      ++k;
+    }
+  VecRestoreArrayRead(_schur_w, &x);
 }
 
 int NonlinearSolver::saddle_solve()
@@ -327,33 +451,41 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   PetscScalar* zz = parts.y;
   std::span<double> w = self->_work2.mutable_array();
   const std::string& factorization = self->_split_factorization;
-  // q = (D_r B x1 - r_q) / (1 + D_r h), without B x1 for the upper factor; B^T q into w
-  // for the second soft solve, which the lower factor does not make
-  auto schur = [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
+  // q = S^-1 (D_r B x1 - r_q), without B x1 for the upper factor
+  auto schur_rhs = [&](std::size_t part, std::size_t i, PetscInt k, double Bx)
   {
-    const double d = self->_split[part][i];
-    zz[k] = (d * Bx - rr[k]) / (1 + d * self->_schur_h[part][i]);
-    return -zz[k];
+    zz[k] = self->_split[part][i] * Bx - rr[k];
+    return 0.0;
   };
-  if (factorization != "lower")
-    std::fill(w.begin(), w.end(), 0.0);
+  auto schur_solve = [&]
+  {
+    PetscScalar* q = zz + parts.nu;
+    if (self->_split_schur == "sparse")
+      return self->sparse_schur_solve(q);
+    PetscInt k = 0;
+    for (std::size_t part = 0; part < self->_split.size(); ++part)
+      for (std::size_t i = 0; i < self->_split[part].size(); ++i, ++k)
+        q[k] /= 1 + self->_split[part][i] * self->_schur_h[part][i];
+  };
   if (factorization == "upper")
-    // q = -r_q / (1 + D_r h);  z_u = A_s^-1 (r_u - B^T q)
-    apply_B_and_BT<false, true>(self->_cell_unknowns, {}, w, parts.nu, schur);
+    // q = -S^-1 r_q;  z_u = A_s^-1 (r_u - B^T q)
+    apply_B_and_BT<false, false>(self->_cell_unknowns, {}, {}, parts.nu, schur_rhs);
   else
   {
     // x1 = A_s^-1 r_u;  q as above;  full: z_u = A_s^-1 (r_u - B^T q),
     // lower: z_u = x1 (x1 lands in z_u; the full factor's second solve overwrites it)
     soft_solve(self->_part_in, self->_part_out);
     self->to_full(self->_part_out);
-    std::span<const double> x1 = self->_work.array();
-    if (factorization == "lower")
-    {
-      apply_B_and_BT<true, false>(self->_cell_unknowns, x1, w, parts.nu, schur);
-      return 0;
-    }
-    apply_B_and_BT<true, true>(self->_cell_unknowns, x1, w, parts.nu, schur);
+    apply_B_and_BT<true, false>(self->_cell_unknowns, self->_work.array(), {}, parts.nu,
+                                schur_rhs);
   }
+  schur_solve();
+  if (factorization == "lower")
+    return 0;
+  std::fill(w.begin(), w.end(), 0.0);
+  apply_B_and_BT<false, true>(self->_cell_unknowns, {}, w, parts.nu,
+                              [&](std::size_t, std::size_t, PetscInt k, double)
+                              { return -zz[k]; });
   self->_work2.scatter_rev(std::plus<double>());
   VecCopy(self->_part_in, self->_soft_r);
   self->add_restricted(self->_work2, self->_soft_r);

@@ -242,6 +242,21 @@ def test_parity_series_agree(parity_runs, case, column):
         f"({len(a)} and {len(b)} rows)")
 
 
+def test_parity_sparse_schur(build):
+    """The penalty split's sparse Schur approximation (-penalty_split_schur sparse) is a
+    matrix over the cells of all ranks: on two ranks it must reach the one-rank state
+    (PETSc 3.18's reused product C C^T kept stale values there, and GMRES failed)."""
+    runs = [fusiform(build, os.path.join(build, "test_out", "parity", f"sparse_schur_np{n}"),
+                     ["--model", "combi", "--case", "isometric", "--refinement", "1", "--fbar",
+                      "--linear-solver", "gmres-schur", "--dt", "0.05", "--t-end", "0.05",
+                      "-penalty_split_schur", "sparse"], n) for n in (1, 2)]
+    for n, r in zip((1, 2), runs):
+        assert r.code == 0 and r.series, (
+            f"sparse Schur on {n} rank(s) completes (exit {r.code}) {r.output}")
+    a, b = (float(r.series[-1]["F33"]) for r in runs)
+    assert abs(a / b - 1) < 1e-8, f"F33 on 1 and 2 ranks: {a} and {b} mN"
+
+
 # ---------------------------------------------------------------------------
 # failure: a Newton failure cuts the step back; at the limit the run stops with a
 # message (what, where, what to try), exit status 3, and its last converged
