@@ -1027,7 +1027,9 @@ def plot_map(analysis, path, runs):
             colour = "tab:red" if p["model_change"] else (
                 "tab:blue" if p["dt"] == 0.05 else "tab:gray")
             err = max(p["error"], floor)
-            ax.loglog(p["wall_time"], err, markers.get(p["element"], "o"), color=colour, ms=7)
+            # wall times compare only within one CPU: hollow where the run did not record it
+            ax.loglog(p["wall_time"], err, markers.get(p["element"], "o"), color=colour, ms=7,
+                      mfc=colour if p.get("cpu") else "none")
             if p["model_change"]:
                 text, offset = p["sets"][0].replace("kappa=", "k="), (2, -9)
             elif p["dt"] != 0.05:
@@ -1054,10 +1056,11 @@ def plot_map(analysis, path, runs):
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=7, loc="lower left")
     fig.text(0.01, 0.01, "squares Q1, circles Q1 F-bar (Q1F), diamonds Q2, plus Q2 Taylor-Hood (Q2TH), triangles P1/P2; blue: dt = 0.05 s; grey: "
-             "other time steps (end state is path-independent); red: penalty kappa (a model "
-             "change, error = distance from the preset-kappa reference); qN: quadrature degree N; *: -snes_max_it 10",
+             "other time steps (end state is path-independent); red: penalty kappa (a model\n"
+             "change, error = distance from the preset-kappa reference); qN: quadrature degree N; *: -snes_max_it 10; "
+             "filled: the run recorded its CPU, hollow: it did not (older runs; BENCHMARKS.md, section Machine)",
              fontsize=7)
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
     os.makedirs(os.path.dirname(path), exist_ok=True)
     fig.savefig(path, dpi=110)
 
