@@ -549,7 +549,7 @@ def phase_fbar(args, records):
 # Candidates on another element than F-bar: element options, refinements run (n = 2 has
 # 418,693 unknowns) and the n = 1 timeout in place of --kappa-timeout.  Taylor-Hood's
 # Schur split is PETSc's field split on (u | theta, p), the inf-sup stable pair.
-KAPPA_ELEMENTS = {"Taylor-Hood, Schur split": (dict(degree=2, taylor_hood=True), (1,), 900)}
+KAPPA_ELEMENTS = {"Taylor-Hood, Schur split": (dict(degree=2, taylor_hood=True), (1, 2), 900)}
 
 
 def kappa_runs(args):

@@ -413,9 +413,17 @@ namespace muscle
 struct NonlinearSolverTestAccess
 {
   static SNES snes(NonlinearSolver& solver) { return solver._snes; }
-  static void sparse_schur_solve(NonlinearSolver& solver, std::vector<double>& q)
+  static bool sparse_schur_solve(NonlinearSolver& solver, std::vector<double>& q)
   {
-    solver.sparse_schur_solve(q.data());
+    return solver.sparse_schur_solve(q.data());
+  }
+  /// the cells' unknowns q of the saddle form
+  static std::size_t cells(const NonlinearSolver& solver)
+  {
+    std::size_t count = 0;
+    for (const auto& part : solver._split)
+      count += part.size();
+    return count;
   }
   /// S q with S = I + D_r B diag(A_s)^-1 B^T formed cell by cell from the cells'
   /// linearisation, their removed penalty shares and the soft matrix's diagonal (one rank)
@@ -580,11 +588,12 @@ TEST(PenaltySplitSparseSchur, InvertsTheCellwiseComplement)
   // the split, the soft matrix and the cells' g are those of the last Jacobian
   ASSERT_GT(NonlinearSolverTestAccess::split_cells(solver), 0u);
 
-  const std::size_t cells = 2 * 2 * 3;
+  const std::size_t cells = NonlinearSolverTestAccess::cells(solver);
+  ASSERT_EQ(cells, 2u * 2u * 3u);
   std::vector<double> v(cells), q(cells);
   for (std::size_t k = 0; k < cells; ++k)
     v[k] = q[k] = std::sin(1.0 + k);
-  NonlinearSolverTestAccess::sparse_schur_solve(solver, q);
+  ASSERT_TRUE(NonlinearSolverTestAccess::sparse_schur_solve(solver, q));
   const std::vector<double> Sq = NonlinearSolverTestAccess::schur_product(solver, q);
   ASSERT_EQ(Sq.size(), cells);
   EXPECT_LT(max_abs_diff(Sq, v), 1e-10 * max_abs(v));

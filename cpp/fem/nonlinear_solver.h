@@ -269,10 +269,11 @@ private:
   int saddle_solve();
   static PetscErrorCode saddle_multiply(Mat M, Vec v, Vec y);
   static PetscErrorCode penalty_split_apply(PC pc, Vec r, Vec z);
-  /// _schur_factor and _schur_sym from the split and diag(A_s) (in _work)
-  void update_sparse_schur();
-  /// q <- S^-1 q (q: the cells' part, local) with S = I + D_r B diag(A_s)^-1 B^T
-  void sparse_schur_solve(PetscScalar* q);
+  /// _schur_factor and _schur_sym from the split and d = diag(A_s) (full layout, ghosts)
+  void update_sparse_schur(std::span<const double> d);
+  /// q <- S^-1 q, approximately (one V-cycle by default; q: the cells' part, local) with
+  /// S = I + D_r B diag(A_s)^-1 B^T; false if the solve of I + C C^T failed
+  bool sparse_schur_solve(PetscScalar* q);
   Mat _saddle = nullptr;   ///< (du, q) -> (A_s du + B^T q, D_r B du - q), shell
   Vec _saddle_b = nullptr, _saddle_x = nullptr;
   Vec _part_in = nullptr, _part_out = nullptr; ///< the du part of saddle vectors (no own array)
@@ -294,7 +295,9 @@ private:
   Mat _schur_sym = nullptr;    ///< I + C C^T
   KSP _schur = nullptr;        ///< one V-cycle on _schur_sym (-schur_ options)
   Vec _schur_rhs = nullptr, _schur_w = nullptr;
-  std::vector<double> _soft_diagonal; ///< diag(A_s), full layout with ghosts
+  /// diag(A_s), full layout with ghosts: kept, since the soft solve's to_full overwrites
+  /// _work before the Schur solve needs it
+  std::vector<double> _soft_diagonal;
 
   std::vector<MuscleProblem*> _parts;
   MuscleProblem& _problem; ///< the first part: displacement, space, mesh

@@ -22,9 +22,10 @@
 // the count flat on a small block but let GMRES stop with the condensed residual up to
 // kappa times the tolerance (more Newton iterations, failures at 10^4 on the fusiform).
 // `-penalty_split_schur sparse` keeps the whole cell matrix I + D_r B diag(A_s)^-1 B^T
-// (PETSc's "selfp"), which shares the exact complement's near-kernel B^T q ~ 0; measured,
-// it needs more Krylov iterations than its diagonal (BENCHMARKS.md): diag(A_s)^-1 is far
-// from A_s^-1 on smooth pressures.
+// (PETSc's "selfp", with the full layout's diagonal also under a constraint), which, like
+// the exact complement and unlike the diagonal, is close to I on the modes with
+// B^T q ~ 0; measured, it needs more Krylov iterations than its diagonal (BENCHMARKS.md):
+// diag(A_s)^-1 is far from A_s^-1 on smooth pressures.
 #include "nonlinear_solver.h"
 
 #include "../common/errors.h"
@@ -287,24 +288,22 @@ void NonlinearSolver::update_penalty_split()
     _schur_h[part][i] = h;
   });
   if (_split_schur == "sparse")
-    update_sparse_schur();
+    update_sparse_schur(_work.array());
 }
 
-void NonlinearSolver::update_sparse_schur()
+void NonlinearSolver::update_sparse_schur(std::span<const double> d)
 {
-  // C = D_r^1/2 B diag(A_s)^-1/2 (free dofs only; explicit zeros keep the pattern fixed
-  // while cells gain or lose their removed share), then I + C C^T
-  const std::span<const double> d = _work.array(); // diag(A_s) from update_penalty_split
+  // C = D_r^1/2 B diag(A_s)^-1/2 on the free dofs, then I + C C^T.  Every entry is
+  // inserted, zeros too: a cell that lost its removed share must lose last update's row.
   _soft_diagonal.assign(d.begin(), d.end());
-  ISLocalToGlobalMapping rows, cols;
-  MatGetLocalToGlobalMapping(_A, &rows, &cols);
+  ISLocalToGlobalMapping cols;
+  MatGetLocalToGlobalMapping(_A, nullptr, &cols);
   PetscInt owned_dofs;
   MatGetLocalSize(_A, &owned_dofs, nullptr);
   PetscInt nq, first;
   VecGetLocalSize(_schur_rhs, &nq);
   VecGetOwnershipRange(_schur_rhs, &first, nullptr);
-  const bool create = !_schur_factor;
-  if (create)
+  if (!_schur_factor)
   {
     std::vector<PetscInt> diagonal_nnz(nq, 0), off_nnz(nq, 0);
     PetscInt k = 0;
@@ -340,7 +339,8 @@ void NonlinearSolver::update_sparse_schur()
   });
   MatAssemblyBegin(_schur_factor, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(_schur_factor, MAT_FINAL_ASSEMBLY);
-  // formed anew: PETSc 3.18's reused C C^T kept stale values on two ranks (measured)
+  // formed anew: with MAT_REUSE_MATRIX the product kept stale values on two ranks
+  // (observed with PETSc 3.18; GMRES then failed; not reduced to a reproducer)
   MatDestroy(&_schur_sym);
   MatMatTransposeMult(_schur_factor, _schur_factor, MAT_INITIAL_MATRIX, PETSC_DEFAULT,
                       &_schur_sym);
@@ -348,7 +348,7 @@ void NonlinearSolver::update_sparse_schur()
   KSPSetOperators(_schur, _schur_sym, _schur_sym);
 }
 
-void NonlinearSolver::sparse_schur_solve(PetscScalar* q)
+bool NonlinearSolver::sparse_schur_solve(PetscScalar* q)
 {
   // S = I + P^2 H with P = D_r^1/2, H = B diag(A_s)^-1 B^T, and S_sym = I + P H P:
   // q <- q - P w with S_sym w = P H q (q's cells without a removed share stay as they are)
@@ -370,6 +370,8 @@ void NonlinearSolver::sparse_schur_solve(PetscScalar* q)
   });
   VecRestoreArray(_schur_rhs, &rhs);
   KSPSolve(_schur, _schur_rhs, _schur_w);
+  KSPConvergedReason reason;
+  KSPGetConvergedReason(_schur, &reason);
   const PetscScalar* x;
   VecGetArrayRead(_schur_w, &x);
   PetscInt k = 0;
@@ -380,6 +382,7 @@ void NonlinearSolver::sparse_schur_solve(PetscScalar* q)
       ++k;
     }
   VecRestoreArrayRead(_schur_w, &x);
+  return reason >= 0;
 }
 
 int NonlinearSolver::saddle_solve()
@@ -461,7 +464,11 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   {
     PetscScalar* q = zz + parts.nu;
     if (self->_split_schur == "sparse")
-      return self->sparse_schur_solve(q);
+    {
+      if (!self->sparse_schur_solve(q))
+        PCSetFailedReason(pc, PC_SUBPC_ERROR);
+      return;
+    }
     PetscInt k = 0;
     for (std::size_t part = 0; part < self->_split.size(); ++part)
       for (std::size_t i = 0; i < self->_split[part].size(); ++i, ++k)
