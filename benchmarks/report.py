@@ -204,6 +204,7 @@ RUNS = {
     "kth_k1000": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000",
     "kth_k10000": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000",
     # and at n = 2 (two ranks)
+    "kth2_k100": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa100",
     "kth2_k1000": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
     "kth2_k10000": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000",
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
