@@ -553,20 +553,29 @@ TEST(PenaltySplitFactorisation, EachIsApplied)
   EXPECT_NE(upper.residual_norms, full.residual_norms);
 }
 
-TEST(PenaltySplitInput, AnUnknownFactorisationIsAnInputError)
+namespace
 {
-  const Factorisation chosen("diagonal");
+/// The split solver given `option value` must refuse it with an InputError naming `allowed`.
+void expect_input_error(const char* option, const char* value, const std::string& allowed)
+{
+  const ScopedOption chosen(option, value);
   Block block = make_block(Model("combi"), false, 1000.0);
   try
   {
     NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
-    ADD_FAILURE() << "no error for -penalty_split_factorization diagonal";
+    ADD_FAILURE() << "no error for " << option << " " << value;
   }
   catch (const InputError& e)
   {
-    EXPECT_NE(std::string(e.what()).find("allowed are lower, upper, full"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("allowed are " + allowed), std::string::npos)
         << e.what();
   }
+}
+} // namespace
+
+TEST(PenaltySplitInput, AnUnknownFactorisationIsAnInputError)
+{
+  expect_input_error("-penalty_split_factorization", "diagonal", "lower, upper, full");
 }
 
 // The sparse Schur approximation (-penalty_split_schur sparse) S = I + D_r B diag(A_s)^-1 B^T
@@ -602,16 +611,5 @@ TEST(PenaltySplitSparseSchur, InvertsTheCellwiseComplement)
 
 TEST(PenaltySplitInput, AnUnknownSchurApproximationIsAnInputError)
 {
-  const ScopedOption chosen("-penalty_split_schur", "exact");
-  Block block = make_block(Model("combi"), false, 1000.0);
-  try
-  {
-    NonlinearSolver solver(*block.problem, block.bcs, block.constraint, split_options());
-    ADD_FAILURE() << "no error for -penalty_split_schur exact";
-  }
-  catch (const InputError& e)
-  {
-    EXPECT_NE(std::string(e.what()).find("allowed are diagonal, sparse"), std::string::npos)
-        << e.what();
-  }
+  expect_input_error("-penalty_split_schur", "exact", "diagonal, sparse");
 }

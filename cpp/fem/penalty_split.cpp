@@ -279,6 +279,8 @@ void NonlinearSolver::update_penalty_split()
 
   // diag_c(B A_s^-1 B^T) by the diagonal of A_s (full layout, also when constrained)
   diagonal(_A_soft, _work);
+  if (_split_schur == "sparse")
+    return update_sparse_schur(_work.array());
   for_each_cell(_cell_unknowns, [&](std::size_t part, std::size_t i, auto g, auto dofs, auto fixed)
   {
     double h = 0;
@@ -287,8 +289,6 @@ void NonlinearSolver::update_penalty_split()
         h += g[j] * g[j] / _work.array()[dofs[j]];
     _schur_h[part][i] = h;
   });
-  if (_split_schur == "sparse")
-    update_sparse_schur(_work.array());
 }
 
 void NonlinearSolver::update_sparse_schur(std::span<const double> d)
