@@ -207,6 +207,11 @@ RUNS = {
     "kth2_k100": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa100",
     "kth2_k1000": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
     "kth2_k10000": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000",
+    # and with BoomerAMG on the displacement block
+    **{f"kthh{n if n > 1 else ''}_k{k}":
+       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
+       "_fieldsplit_u_pc_typehypre"
+       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (100, 1000, 10000))) for k in kappas},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -672,6 +677,9 @@ KAPPA_CANDIDATES = {
                         "-soft_pc_factor_mat_solver_type mumps", "-penalty_split_schur sparse",
                         "-schur_pc_type lu", "-schur_pc_factor_mat_solver_type mumps")),
     "Taylor-Hood, Schur split": ("gmres-schur", ()),
+    # BoomerAMG for systems on the displacement block (its settings in
+    # configure_mixed_split) in place of GAMG
+    "Taylor-Hood, Schur split, BoomerAMG": ("gmres-schur", ("-fieldsplit_u_pc_type hypre",)),
 }
 
 

@@ -31,7 +31,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             penalty split (gmres-schur; full, lower, upper factor; lower with SSOR
             levels; lower with A_s^-1 by MUMPS, a diagnosis); n = 1 on one rank
             and n = 2 on two (--kappa-refinements, --kappa-candidates, --kappas); and
-            Taylor-Hood with its Schur field split, n = 1 only
+            Taylor-Hood with its Schur field split (GAMG or BoomerAMG on the
+            displacement block), n = 1 on one rank and n = 2 on two
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
             (full factor at linear rtol 1e-6, lower at 1e-4, lower with SSOR levels at 1e-4)
   reference  the references of F33 and epsilon: F-bar at n = 3 and 6, isometric and free,
@@ -549,7 +550,8 @@ def phase_fbar(args, records):
 # Candidates on another element than F-bar: element options, refinements run (n = 2 has
 # 418,693 unknowns) and the n = 1 timeout in place of --kappa-timeout.  Taylor-Hood's
 # Schur split is PETSc's field split on (u | theta, p), the inf-sup stable pair.
-KAPPA_ELEMENTS = {"Taylor-Hood, Schur split": (dict(degree=2, taylor_hood=True), (1, 2), 900)}
+KAPPA_ELEMENTS = {label: (dict(degree=2, taylor_hood=True), (1, 2), 900)
+                  for label in ("Taylor-Hood, Schur split", "Taylor-Hood, Schur split, BoomerAMG")}
 
 
 def kappa_runs(args):

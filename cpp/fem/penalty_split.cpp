@@ -29,6 +29,7 @@
 #include "nonlinear_solver.h"
 
 #include "../common/errors.h"
+#include "../common/petsc_options.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
 
@@ -92,28 +93,6 @@ void apply_B_and_BT(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts,
         if (!fixed[dofs[j]])
           w[dofs[j]] += g[j] * scale;
   });
-}
-
-/// Reads the string option `name` into `value` if given; it must be one of `allowed`.
-void choice_option(const char* name, std::initializer_list<const char*> allowed,
-                   std::string& value)
-{
-  char given_value[256] = "";
-  PetscBool given = PETSC_FALSE;
-  PetscOptionsGetString(nullptr, nullptr, name, given_value, sizeof(given_value), &given);
-  if (!given)
-    return;
-  std::string list;
-  for (const char* a : allowed)
-  {
-    if (given_value == std::string(a))
-    {
-      value = a;
-      return;
-    }
-    list += std::string(list.empty() ? "" : ", ") + a;
-  }
-  throw InputError(std::string(name) + " " + given_value + ": allowed are " + list);
 }
 
 /// A saddle vector pair (read, write) with their du parts placed in `du_in`, `du_out`

@@ -2,6 +2,7 @@
 
 #include "../common/command_line.h"
 #include "../common/errors.h"
+#include "../common/petsc_options.h"
 #include "../fem/condition_number.h"
 #include "assembly_timing.h"
 #include "clock.h"
@@ -28,10 +29,7 @@ void set_petsc_options(const std::vector<std::string>& words)
     if (words[i][0] != '-')
       continue;
     const bool has_value = i + 1 < words.size() and words[i + 1][0] != '-';
-    PetscBool set = PETSC_FALSE;
-    PetscOptionsHasName(nullptr, nullptr, words[i].c_str(), &set);
-    if (!set)
-      PetscOptionsSetValue(nullptr, words[i].c_str(), has_value ? words[i + 1].c_str() : nullptr);
+    set_unless_given(words[i].c_str(), has_value ? words[i + 1].c_str() : nullptr);
   }
 }
 

@@ -313,6 +313,30 @@ def test_taylor_hood_schur_split_robust_in_lambda(build, scratch, record):
     assert stiff < 1.2 * soft and stiff < 150, counts
 
 
+def test_taylor_hood_schur_split_boomeramg(build, scratch):
+    """BoomerAMG on the displacement block (-fieldsplit_u_pc_type hypre) brings its
+    settings for systems, an option the user gives wins over them, and the split still
+    reaches MUMPS's tip on two ranks (the cantilever's first load step at
+    lambda / mu = 9999)."""
+    runs = {"lu": [], "gmres-schur": [
+        "solver.petsc=-fieldsplit_u_pc_type hypre -fieldsplit_u_pc_hypre_boomeramg_P_max 2 "
+        "-ksp_view"]}
+    tips, outputs = {}, {}
+    for solver, petsc in runs.items():
+        out = os.path.join(scratch, solver)
+        result = muscle_run(build, CANTILEVER, out, QUIET + TAYLOR_HOOD + [
+            "parts[0].material.parameters.nu=0.49995", f"solver.linear={solver}",
+            "time.end=0.1"] + petsc, ranks=2)
+        assert result.returncode == 0, result.stdout + result.stderr
+        tips[solver] = series_rows(out)[-1]["tip_z"]
+        outputs[solver] = result.stdout
+    view = outputs["gmres-schur"]
+    for line in ("Using nodal coarsening", "InterpVecVariant() 2", "Coarsen type        HMIS",
+                 "max elements per row 2"):
+        assert line in view, (line, view[-3000:])
+    assert abs(tips["gmres-schur"] / tips["lu"] - 1) < 1e-7, tips
+
+
 def test_taylor_hood_bad_input(build, scratch):
     """Taylor-Hood needs degree 2; the message names the key and what to set."""
     result = run(build, "compression.yaml", scratch, ["element.taylor_hood=true"])

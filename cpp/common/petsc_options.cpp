@@ -1,0 +1,50 @@
+#include "petsc_options.h"
+#include "errors.h"
+#include <petscsys.h>
+
+namespace muscle
+{
+
+void set_unless_given(const char* name, const char* value)
+{
+  PetscBool given = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, name, &given);
+  if (!given)
+    PetscOptionsSetValue(nullptr, name, value);
+}
+
+void set_unless_given(std::initializer_list<std::pair<const char*, const char*>> options)
+{
+  for (const auto& [name, value] : options)
+    set_unless_given(name, value);
+}
+
+std::string string_option(const char* name)
+{
+  char value[256] = "";
+  PetscOptionsGetString(nullptr, nullptr, name, value, sizeof(value), nullptr);
+  return value;
+}
+
+void choice_option(const char* name, std::initializer_list<const char*> allowed,
+                   std::string& value)
+{
+  PetscBool given = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, name, &given);
+  if (!given)
+    return;
+  const std::string given_value = string_option(name);
+  std::string list;
+  for (const char* a : allowed)
+  {
+    if (given_value == a)
+    {
+      value = a;
+      return;
+    }
+    list += std::string(list.empty() ? "" : ", ") + a;
+  }
+  throw InputError(std::string(name) + " " + given_value + ": allowed are " + list);
+}
+
+} // namespace muscle

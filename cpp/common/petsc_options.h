@@ -1,0 +1,25 @@
+#pragma once
+
+#include <initializer_list>
+#include <string>
+#include <utility>
+
+namespace muscle
+{
+
+/// Sets PETSc option `name` (to `value`, or as a flag if null) unless the user
+/// gave it: the command line wins over a scene's or a solver's defaults.
+void set_unless_given(const char* name, const char* value);
+
+/// The same for each (name, value) pair.
+void set_unless_given(std::initializer_list<std::pair<const char*, const char*>> options);
+
+/// The string option `name`, or "" if not given.
+std::string string_option(const char* name);
+
+/// Reads the string option `name` into `value` if given; it must be one of
+/// `allowed`, or InputError names what is.
+void choice_option(const char* name, std::initializer_list<const char*> allowed,
+                   std::string& value);
+
+} // namespace muscle
