@@ -225,6 +225,11 @@ RUNS = {
                            "_kappa1000_penalty_split_factorizationlower",
     "kpl6_split_free_k1000": "kappa_combi_free_hex1fbar_n6_dt0.05_gmres-schur_np2_rtol0.0001"
                            "_kappa1000_penalty_split_factorizationlower",
+    # the graded families (phase reference): n = 2, 4, 6 with the n = 4 runs' settings
+    **{f"kgr{n}_{case[:4].replace('isom', 'iso')}": f"kappa_combi_{case}_hex1fbar_n{n}_dt0.05_gmres-schur_np2_rtol0.0001"
+       f"_kappa1000_{grading.replace('=', '')}_penalty_split_factorizationlower"
+       for case, grading in (("isometric", "mesh.set.grade=4"),
+                             ("free", "mesh.set.grade_radial=6")) for n in (2, 4, 6)},
     # Q2: the reference of the map, its quadrature variants, kappa = 100
     "q2_iso": "combi_isometric_hex2_n1_dt0.05_lu_np1",
     "q2_free": "combi_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
@@ -395,8 +400,8 @@ def make_helpers(res):
             "shoulder": lambda size, solver="lu", ranks=1: shoulder_run(raw, size, solver,
                                                                        ranks),
             "shoulder_step_time": shoulder_step_time, "shoulder_core_share": shoulder_core_share,
-            "reference": lambda case, meshes=(2, 4, 6): reference_extrapolation(res, case,
-                                                                                meshes),
+            "reference": lambda case, meshes=(2, 4, 6), family=REFERENCE_FAMILY:
+                reference_extrapolation(res, case, meshes, family),
             "reference_spread": lambda case: reference_spread(res, case),
             "reference_triplets": lambda case: reference_triplets(res, case),
             "cell_size": cell_size, **reference_values(res),
@@ -853,11 +858,15 @@ def richardson_table(res):
              f33),
             ("shortening 1 - epsilon, kappa = 1000", "1, 2, 4",
              ("fb_free", "fb2_free", "kpl4_split_free_k1000"), one_minus_epsilon),
-            ("**F33 [mN], kappa = 1000**", "**2, 4, 6**",
+            ("F33 [mN], kappa = 1000", "2, 4, 6",
              ("fb2_iso", "kpl4_split_k1000", "kpl6_split_k1000"), f33),
-            ("**shortening 1 - epsilon, kappa = 1000**", "**2, 4, 6**",
+            ("shortening 1 - epsilon, kappa = 1000", "2, 4, 6",
              ("fb2_free", "kpl4_split_free_k1000", "kpl6_split_free_k1000"),
-             one_minus_epsilon)):
+             one_minus_epsilon),
+            ("**F33 [mN], kappa = 1000**", "**2, 4, 6 graded (z)**",
+             reference_aliases("isometric", family="graded"), f33),
+            ("**shortening 1 - epsilon, kappa = 1000**", "**2, 4, 6 graded (radially)**",
+             reference_aliases("free", family="graded"), one_minus_epsilon)):
         runs = [res.run(RUNS[n]) for n in names]
         v = [value(r) for r in runs]
         x = richardson(*v, h=[cell_size(r) for r in runs])
@@ -873,21 +882,30 @@ def richardson_table(res):
                      "GCI of the finest mesh"], rows)
 
 
-# F-bar at the preset kappa by refinement n: the isometric and the free run's aliases
+# F-bar at the preset kappa by refinement n: the isometric and the free run's aliases,
+# on the uniform meshes and on the graded ones (fusiform.geo's grade and grade_radial)
 REFERENCE_SEQUENCE = ((1, "fb_iso", "fb_free"), (2, "fb2_iso", "fb2_free"),
                       (3, "kpl3_split_k1000", "kpl3_split_free_k1000"),
                       (4, "kpl4_split_k1000", "kpl4_split_free_k1000"),
                       (6, "kpl6_split_k1000", "kpl6_split_free_k1000"))
+GRADED_SEQUENCE = tuple((n, f"kgr{n}_iso", f"kgr{n}_free") for n in (2, 4, 6))
+# the gradings of phase reference, per case: the force's error sits at the clamped end
+# faces (z), the free shortening's towards the mantle (radially)
+REFERENCE_GRADINGS = {"isometric": "mesh.set.grade=4", "free": "mesh.set.grade_radial=6"}
+# the family whose extrapolation is the map's reference
+REFERENCE_FAMILY = "graded"
 # the runs of phase reference and kappa-n4 that are points of the map at the preset kappa
-REFERENCE_POINTS = tuple(alias for n, iso, free in REFERENCE_SEQUENCE if n > 2
+REFERENCE_POINTS = tuple(alias for sequence in (REFERENCE_SEQUENCE, GRADED_SEQUENCE)
+                         for n, iso, free in sequence if n > 2 or sequence is GRADED_SEQUENCE
                          for alias in (iso, free))
 
 
-def reference_aliases(case, meshes=(2, 4, 6)):
+def reference_aliases(case, meshes=(2, 4, 6), family=REFERENCE_FAMILY):
     """The aliases of the runs of a case at the refinements `meshes` (by default the
-    similar meshes n = 2, 4, 6, the force's reference family)."""
+    similar meshes n = 2, 4, 6) of a mesh family, "graded" or "uniform"."""
     column = 1 if case == "isometric" else 2
-    return [row[column] for row in REFERENCE_SEQUENCE if row[0] in meshes]
+    sequence = GRADED_SEQUENCE if family == "graded" else REFERENCE_SEQUENCE
+    return [row[column] for row in sequence if row[0] in meshes]
 
 
 def reference_quantity(case):
@@ -896,21 +914,26 @@ def reference_quantity(case):
     return (lambda r: r["F33"]) if case == "isometric" else (lambda r: 1 - r["epsilon"])
 
 
-def reference_extrapolation(res, case, meshes=(2, 4, 6)):
+def reference_extrapolation(res, case, meshes=(2, 4, 6), family=REFERENCE_FAMILY):
     """F33 (isometric) or the shortening 1 - epsilon (free) extrapolated through three of
-    the refinements."""
+    the refinements of a mesh family."""
     value = reference_quantity(case)
-    runs = [res.run(RUNS[alias]) for alias in reference_aliases(case, meshes)]
+    runs = [res.run(RUNS[alias]) for alias in reference_aliases(case, meshes, family)]
     return richardson(*(value(r) for r in runs), h=[cell_size(r) for r in runs])
 
 
 def reference_values(res):
-    """The map's references for the template, extrapolated through F-bar n = 2, 4, 6:
-    ref_iso (F33) and ref_free (epsilon, from the shortening); none without phase
-    reference's runs (then a placeholder naming them fails with its line)."""
+    """The map's references for the template, extrapolated through F-bar n = 2, 4, 6 on
+    the graded meshes: ref_iso (F33) and ref_free (epsilon, from the shortening); on the
+    uniform meshes ref_iso_uniform and ref_free_uniform; none without phase reference's
+    runs (then a placeholder naming them fails with its line)."""
     try:
         return {"ref_iso": reference_extrapolation(res, "isometric")["value"],
-                "ref_free": 1 - reference_extrapolation(res, "free")["value"]}
+                "ref_free": 1 - reference_extrapolation(res, "free")["value"],
+                "ref_iso_uniform": reference_extrapolation(res, "isometric",
+                                                           family="uniform")["value"],
+                "ref_free_uniform": 1 - reference_extrapolation(res, "free",
+                                                                family="uniform")["value"]}
     except KeyError:
         return {}
 
@@ -925,28 +948,30 @@ def reference_triplets(res, case):
 
 
 def reference_spread(res, case):
-    """How far the extrapolations through the other triplets of n = 2, 3, 4, 6 (h from
-    the cell count, n = 3 off the family) lie from the family's: {"triplets": [(meshes,
-    result)], "spread": the largest relative distance of a converging one}."""
-    family = reference_extrapolation(res, case)["value"]
-    triplets = [(m, reference_extrapolation(res, case, m))
+    """How far the extrapolations through the other triplets of the uniform meshes
+    n = 2, 3, 4, 6 (h from the cell count, n = 3 off the family) lie from theirs through
+    n = 2, 4, 6: {"triplets": [(meshes, result)], "spread": the largest relative distance
+    of a converging one}."""
+    family = reference_extrapolation(res, case, family="uniform")["value"]
+    triplets = [(m, reference_extrapolation(res, case, m, "uniform"))
                 for m in itertools.combinations((2, 3, 4, 6), 3) if m != (2, 4, 6)]
     values = [x["value"] for _, x in triplets if "value" in x]
     return {"triplets": triplets,
             "spread": max(abs(v / family - 1) for v in values) if values else None}
 
 
-@table
-def reference_table(res):
-    """F-bar by refinement at the preset kappa: F33 and the shortening 1 - epsilon against
-    the laws fitted through n = 2, 4, 6 (zero there by construction)."""
-    law = reference_extrapolation(res, "isometric")
-    free_law = reference_extrapolation(res, "free")
-    finest = cell_size(res.run(RUNS["kpl6_split_k1000"]))
+def reference_family_table(res, family):
+    """F-bar by refinement at the preset kappa on a mesh family: F33 and the shortening
+    1 - epsilon against the family's laws fitted through n = 2, 4, 6 (zero there by
+    construction)."""
+    law = reference_extrapolation(res, "isometric", family=family)
+    free_law = reference_extrapolation(res, "free", family=family)
+    sequence = GRADED_SEQUENCE if family == "graded" else REFERENCE_SEQUENCE
+    finest = cell_size(res.run(RUNS[sequence[-1][1]]))
     solver = lambda r: (SOLVER_NAMES.get(r["solver"]) or r.get("candidate", r["solver"])) \
         + f", {r['ranks']} rank" + ("s" if r["ranks"] > 1 else "")
     rows = []
-    for n, iso_alias, free_alias in REFERENCE_SEQUENCE:
+    for n, iso_alias, free_alias in sequence:
         iso, free = res.run(RUNS[iso_alias]), res.run(RUNS[free_alias])
         h = cell_size(iso)
         rows.append([n, f"{iso['cells']:,}", f"{iso['unknowns']:,}", fmt(h / finest, ".3f"),
@@ -960,6 +985,18 @@ def reference_table(res):
     return md_table(["n", "cells", "unknowns", "h / h(n = 6)", "of the family", "F33 [mN]",
                      "F33 - law [mN]", "epsilon", "shortening vs law", "solver",
                      "wall isometric / free [s]", "peak RSS / process [MiB]", "CPU"], rows)
+
+
+@table
+def reference_table(res):
+    """The uniform meshes n = 1, 2, 3, 4, 6 against their laws through n = 2, 4, 6."""
+    return reference_family_table(res, "uniform")
+
+
+@table
+def graded_reference_table(res):
+    """The graded meshes n = 2, 4, 6 (REFERENCE_GRADINGS) against their laws."""
+    return reference_family_table(res, "graded")
 
 
 @table

@@ -38,7 +38,9 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
   reference  the references of F33 and epsilon: F-bar at n = 3 and 6, isometric and free,
             with the n = 4 runs' settings (--reference-refinements; n = 2, 4, 6 are one
             family of similar meshes, n = 3 checks the extrapolation; n = 6 has 1.3 M
-            unknowns)
+            unknowns), and the same on meshes graded towards the end faces (isometric)
+            and the mantle (free), n = 2, 4, 6 (--reference-graded-refinements), whose
+            extrapolations are the map's references
   taylor-hood  the bending cantilever, Q2 against Taylor-Hood (MUMPS, Schur split) by
             refinement and the Schur split against lambda / mu (taylor_hood.py);
             map-taylor-hood: Taylor-Hood on the map, n = 1; map-taylor-hood-n2: its
@@ -615,10 +617,15 @@ def phase_reference(args, records):
     """References of F33 and epsilon by Richardson extrapolation need meshes of one
     family: the fusiform's radial count ceil(2.5 n) is proportional to n only for even
     n, so n = 2, 4, 6 are similar meshes (h in the ratios 3 : 1.5 : 1) and n = 3 lies
-    off the family, a check of the extrapolated law rather than one of its points."""
-    for n, case in itertools.product(args.reference_refinements, ("isometric", "free")):
+    off the family, a check of the extrapolated law rather than one of its points.  The
+    graded families (report.REFERENCE_GRADINGS, n = 2, 4, 6; the map's reference) alike."""
+    runs = [(n, case, ()) for n, case in
+            itertools.product(args.reference_refinements, ("isometric", "free"))]
+    runs += [(n, case, (report.REFERENCE_GRADINGS[case],)) for case, n in
+             itertools.product(("isometric", "free"), args.reference_graded_refinements)]
+    for n, case, grading in runs:
         kappa_run(args, records, "penalty split, lower", case=case, n=n, np=2,
-                  solver="gmres-schur", sets=("kappa=1000",),
+                  solver="gmres-schur", sets=("kappa=1000", *grading),
                   petsc=KAPPA_CANDIDATES["penalty split, lower"][1], rtol=1e-4,
                   timeout=args.map_timeout * max(1, n / 4) ** 3)
 
@@ -907,7 +914,8 @@ def extrapolated_references(records):
         if "value" not in x:
             continue
         limit = x["value"] if case == "isometric" else 1 - x["value"]
-        out[case] = {"name": "F-bar n = 2, 4, 6 extrapolated", "quantity": quantity,
+        out[case] = {"name": f"F-bar n = 2, 4, 6 {report.REFERENCE_FAMILY}, extrapolated",
+                     "quantity": quantity,
                      "value": limit, "order": x["p"],
                      # Roache's GCI of n = 6, relative to the reference as the map is
                      "gci_finest": 1.25 * abs(value(runs[-1]) / x["value"] - 1),
@@ -960,8 +968,9 @@ def map_analysis(records, reference_choice, sets=()):
 
 
 def preset(sets):
-    """A run's --set list without the preset kappa that some phases name explicitly."""
-    return [x for x in sets if x != "kappa=1000"]
+    """A run's --set list without the preset kappa that some phases name explicitly and
+    without mesh numbers (a mesh, not a model change)."""
+    return [x for x in sets if x != "kappa=1000" and not x.startswith("mesh.set.")]
 
 
 def add_map_points(out, runs, case, quantity, ref_name, reference, sets):
@@ -1015,7 +1024,8 @@ def plot_map(analysis, path, runs):
         if ref.get("extrapolated"):
             # the reference is no run: its finest run's error bar (GCI) as a band
             ax.axhspan(floor, ref["gci_finest"], color="0.9", zorder=0,
-                       label=f"below F-bar n = 6's GCI ({ref['gci_finest']:.2%}): not resolved")
+                       label=f"below graded F-bar n = 6's GCI ({ref['gci_finest']:.3%}): "
+                             "not resolved")
             against = f"{ref['name']} ({ref['quantity']} = {ref['value']:.6g})"
         else:
             ref_run = next(r for r in runs if r["name"] == ref["name"])
@@ -1038,7 +1048,10 @@ def plot_map(analysis, path, runs):
                 text, offset = f"dt={p['dt']:g}", (2, 5)
             else:
                 quadrature = [a.split()[-1] for a in p.get("petsc", []) if "--quadrature-degree" in a]
+                graded = [x.split("=")[0].replace("mesh.set.", "") for x in p["sets"]
+                          if x.startswith("mesh.set.grade")]
                 text = (f"{p['element']} n={p['n']}" + "".join(f" q{q}" for q in quadrature)
+                        + "".join(f" {g}" for g in graded)
                         + ("*" if any("-snes_max_it" in a for a in p.get("petsc", [])) else ""))
                 offset = (4, 2)
             ax.annotate(text, (p["wall_time"], err), fontsize=6.5, xytext=offset,
@@ -1057,7 +1070,7 @@ def plot_map(analysis, path, runs):
         ax.set_ylabel(f"relative error (floor {floor:g} = same as reference)")
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=7, loc="lower left")
-    fig.text(0.01, 0.01, "squares Q1, circles Q1 F-bar (Q1F), diamonds Q2, plus Q2 Taylor-Hood (Q2TH), triangles P1/P2; blue: dt = 0.05 s; grey: "
+    fig.text(0.01, 0.01, "squares Q1, circles Q1 F-bar (Q1F; grade, grade_radial: graded meshes), diamonds Q2, plus Q2 Taylor-Hood (Q2TH), triangles P1/P2; blue: dt = 0.05 s; grey: "
              "other time steps (end state is path-independent); red: penalty kappa (a model\n"
              "change, error = distance from the preset-kappa reference); qN: quadrature degree N; *: -snes_max_it 10; "
              "filled: the run recorded its CPU, hollow: it did not (older runs; BENCHMARKS.md, section Machine)",
@@ -1219,6 +1232,8 @@ def main():
                         choices=list(KAPPA_CANDIDATES))
     parser.add_argument("--kappa-refinements", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--reference-refinements", type=int, nargs="+", default=[3, 6])
+    parser.add_argument("--reference-graded-refinements", type=int, nargs="+",
+                        default=[2, 4, 6])
     parser.add_argument("--kappa-timeout", type=float, default=300,
                         help="seconds for an n = 1 run of phase kappa (n^3 times that at n)")
     parser.add_argument("--reference", default=None,

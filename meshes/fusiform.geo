@@ -30,6 +30,12 @@
 //                the same structured grid split into 6 tetrahedra)
 //    core        radius fraction of the central block's corners (default 0.5;
 //                values near 1 make nearly degenerate outer elements)
+//    grade       along z, the cells at mid-length this many times longer than
+//                those at the end faces (default 1: uniform)
+//    grade_radial  in the outer blocks, the cells at the central block this
+//                many times thicker than those at the mantle (default 1)
+//                Either keeps the meshes of one value similar under refinement
+//                (one family for Richardson extrapolation).
 //
 //  Physical groups (the only ones, so only these elements are saved)
 //    Physical Surface("origin", 1)     end face z = 0   (5 block faces)
@@ -48,7 +54,9 @@ SetFactory("Built-in");
 DefineConstant[
   refinement = {1, Choices{1, 2, 4}, Name "Parameters/refinement"},
   tet = {0, Choices{0, 1}, Name "Parameters/tet"},
-  core = {0.5, Min 0.05, Max 0.98, Name "Parameters/core"}
+  core = {0.5, Min 0.05, Max 0.98, Name "Parameters/core"},
+  grade = {1, Min 1, Max 100, Name "Parameters/grade"},
+  grade_radial = {1, Min 1, Max 100, Name "Parameters/grade_radial"}
 ];
 
 n  = refinement;
@@ -252,8 +260,18 @@ EndFor
 // Structured mesh
 // ---------------------------------------------------------------------------
 Transfinite Curve{e[], arc[]} = NC + 1;
-Transfinite Curve{rl[]} = NR + 1;
-Transfinite Curve{mer[], s[]} = NZ + 1;
+// grading: cell lengths in geometric progression, the cells at the end faces
+// (grade) and at the mantle (grade_radial) that many times shorter than those
+// at mid-length and at the central block.  A per-cell ratio grade^(1/NZ) puts
+// node i at phi(i / NZ) with phi independent of n, so the meshes of one grade
+// stay similar under refinement.
+qz = grade^(1 / NZ);
+qr = grade_radial^(1 / NR);
+Transfinite Curve{rl[]} = NR + 1 Using Progression 1 / qr;   // inner -> rim
+For k In {0 : 3}          // meridians and inner splines run towards +z
+  Transfinite Curve{mer[2*k], s[k]} = NZ + 1 Using Progression qz;
+  Transfinite Curve{mer[2*k + 1], s[4 + k]} = NZ + 1 Using Progression 1 / qz;
+EndFor
 
 // Explicit corners orient the grid of every block along +x / +y (central
 // block), outwards / along +x or +y (outer blocks) and +z, with right-handed

@@ -7,6 +7,7 @@ tests/fusiform/test_fusiform.py --build B):
     P -k "test_findings and [E]"   the paper's findings on E = fbar or q2 (after the E runs)
     P -k test_parity               1 vs 2 MPI ranks
     P -k test_failure              failure without loss
+    P -k test_mesh                 the mesh family's grading (Gmsh only)
 
 M is ble, wkm, giant or combi; E is q1, q2 or fbar (the paper's F-bar hexahedron).
 The test_run_* tests leave their summaries under B/test_out/fusiform_<E>/ for
@@ -31,6 +32,7 @@ import argparse
 import collections
 import csv
 import functools
+import math
 import os
 import subprocess
 import sys
@@ -393,6 +395,59 @@ def test_failure_option_value_refused(build, option, value):
     assert (result.returncode == 2 and value in result.stderr
             and "PETSC ERROR" not in result.stderr), (
         f"fusiform {option} {value}: exit {result.returncode}, {result.stderr.strip()[-120:]}")
+
+
+def mesh_nodes(tmp_path, **numbers):
+    """The node coordinates of meshes/fusiform.geo meshed by Gmsh with these numbers."""
+    geo = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+        os.path.abspath(__file__)))), "meshes", "fusiform.geo")
+    out = os.path.join(tmp_path, "_".join(f"{k}{v}" for k, v in numbers.items()) + ".msh")
+    setnumbers = [a for k, v in numbers.items() for a in ("-setnumber", k, str(v))]
+    subprocess.run(["gmsh", "-3", *setnumbers, geo, "-format", "msh2", "-o", out],
+                   check=True, capture_output=True)
+    with open(out) as f:
+        block = f.read().split("$Nodes")[1].split("$EndNodes")[0].split("\n")[2:-1]
+    return [tuple(float(t) for t in line.split()[1:]) for line in block]
+
+
+def meridian_z(nodes):
+    """z of the nodes on the mantle's meridian at 45 degrees, sorted."""
+    return sorted(z for x, y, z in nodes if x > 0 and abs(x - y) < 1e-9
+                  and abs(math.hypot(x, y) - rim_radius(z)) < 0.05)
+
+
+def rim_radius(z):
+    """The fusiform's profile r(z) (fusiform.geo's closed form; Gmsh's spline through its
+    stations every 5 mm follows it to about 0.01 mm, the outer blocks' cells are thicker)."""
+    z = min(z, 100 - z)
+    if z <= 25:
+        return 10 + z / 5
+    t = (z - 25) / 25
+    return 15 + 5 * t + 5 * t ** 2 - 5 * t ** 3
+
+
+@pytest.mark.parametrize("grade, grade_radial", [(1, 1), (4, 6)])
+def test_mesh_grading(tmp_path, grade, grade_radial):
+    """A graded mesh family: the cells shrink towards the end faces (grade) and the mantle
+    (grade_radial) in geometric progression, and n = 1's nodes are n = 2's even nodes
+    (similar meshes, what Richardson extrapolation assumes)."""
+    coarse, fine = (mesh_nodes(tmp_path, refinement=n, grade=grade, grade_radial=grade_radial)
+                    for n in (1, 2))
+    z1, z2 = meridian_z(coarse), meridian_z(fine)
+    assert len(z1) == 21 and len(z2) == 41, (len(z1), len(z2))
+    # (Gmsh integrates a graded size along the curve: 0.002 mm off, 0.2 % of the end cell)
+    assert max(abs(a - b) for a, b in zip(z1, z2[::2])) < 0.005, "n = 1 nodes not on n = 2's"
+    # cell lengths along the meridian in progression grade^(1/20) (arc length; the profile's
+    # slope 1/5 at the end and 0 at mid-length make the z-lengths differ by 2 %)
+    first, middle = z2[1] - z2[0], z2[20] - z2[19]
+    assert middle / first == pytest.approx(grade ** (19 / 20) * math.sqrt(1 + 1 / 25),
+                                           rel=0.01)
+    # radially at z = 0 on the 45-degree line: from the core corner (radius 5) to the rim
+    radii = sorted(math.hypot(x, y) for x, y, z in fine
+                   if abs(z) < 1e-9 and x > 0 and abs(x - y) < 1e-9 and math.hypot(x, y) >= 5 - 1e-9)
+    cells = [b - a for a, b in zip(radii, radii[1:])]
+    assert len(cells) == 5 and sum(cells) == pytest.approx(5)
+    assert cells[0] / cells[-1] == pytest.approx(grade_radial ** (4 / 5), rel=1e-6)
 
 
 def main():
