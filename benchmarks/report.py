@@ -93,6 +93,10 @@ class Results:
         return r
 
 
+# the gradings of phase reference, per case: the force's error sits at the clamped end
+# faces (z), the free shortening's towards the mantle (radially)
+REFERENCE_GRADINGS = {"isometric": "mesh.set.grade=4", "free": "mesh.set.grade_radial=6"}
+
 # Run aliases for the template: COMBI, 0.05 s steps, MUMPS on one rank unless the name
 # says otherwise; q1 plain trilinear hexahedra, fb F-bar, q2 triquadratic, p1/p2
 # tetrahedra; n2/n4 the refinement (n = 1 otherwise); k100 kappa = 100.
@@ -228,8 +232,7 @@ RUNS = {
     # the graded families (phase reference): n = 2, 4, 6 with the n = 4 runs' settings
     **{f"kgr{n}_{case[:4].replace('isom', 'iso')}": f"kappa_combi_{case}_hex1fbar_n{n}_dt0.05_gmres-schur_np2_rtol0.0001"
        f"_kappa1000_{grading.replace('=', '')}_penalty_split_factorizationlower"
-       for case, grading in (("isometric", "mesh.set.grade=4"),
-                             ("free", "mesh.set.grade_radial=6")) for n in (2, 4, 6)},
+       for case, grading in REFERENCE_GRADINGS.items() for n in (2, 4, 6)},
     # Q2: the reference of the map, its quadrature variants, kappa = 100
     "q2_iso": "combi_isometric_hex2_n1_dt0.05_lu_np1",
     "q2_free": "combi_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
@@ -694,7 +697,9 @@ def kappa_of(r):
 
 def kappa_groups(res):
     """The kappa study's runs by (candidate, n, ranks), in the page's order; the kappas."""
-    runs = res.raw.get("kappa_runs") or []
+    # the graded meshes belong to the reference study, not to the kappa study's groups
+    runs = [r for r in res.raw.get("kappa_runs") or []
+            if not any(s.startswith("mesh.set.") for s in r["sets"])]
     kappas = sorted({kappa_of(r) for r in runs})
     groups = {}
     for r in runs:
@@ -889,9 +894,6 @@ REFERENCE_SEQUENCE = ((1, "fb_iso", "fb_free"), (2, "fb2_iso", "fb2_free"),
                       (4, "kpl4_split_k1000", "kpl4_split_free_k1000"),
                       (6, "kpl6_split_k1000", "kpl6_split_free_k1000"))
 GRADED_SEQUENCE = tuple((n, f"kgr{n}_iso", f"kgr{n}_free") for n in (2, 4, 6))
-# the gradings of phase reference, per case: the force's error sits at the clamped end
-# faces (z), the free shortening's towards the mantle (radially)
-REFERENCE_GRADINGS = {"isometric": "mesh.set.grade=4", "free": "mesh.set.grade_radial=6"}
 # the family whose extrapolation is the map's reference
 REFERENCE_FAMILY = "graded"
 # the runs of phase reference and kappa-n4 that are points of the map at the preset kappa
@@ -927,15 +929,16 @@ def reference_values(res):
     the graded meshes: ref_iso (F33) and ref_free (epsilon, from the shortening); on the
     uniform meshes ref_iso_uniform and ref_free_uniform; none without phase reference's
     runs (then a placeholder naming them fails with its line)."""
-    try:
-        return {"ref_iso": reference_extrapolation(res, "isometric")["value"],
-                "ref_free": 1 - reference_extrapolation(res, "free")["value"],
-                "ref_iso_uniform": reference_extrapolation(res, "isometric",
-                                                           family="uniform")["value"],
-                "ref_free_uniform": 1 - reference_extrapolation(res, "free",
-                                                                family="uniform")["value"]}
-    except KeyError:
-        return {}
+    values = {}
+    for family, suffix in (("graded", ""), ("uniform", "_uniform")):
+        try:
+            values["ref_iso" + suffix] = reference_extrapolation(
+                res, "isometric", family=family)["value"]
+            values["ref_free" + suffix] = 1 - reference_extrapolation(
+                res, "free", family=family)["value"]
+        except KeyError:
+            pass
+    return values
 
 
 def reference_triplets(res, case):

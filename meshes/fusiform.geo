@@ -30,10 +30,12 @@
 //                the same structured grid split into 6 tetrahedra)
 //    core        radius fraction of the central block's corners (default 0.5;
 //                values near 1 make nearly degenerate outer elements)
-//    grade       along z, the cells at mid-length this many times longer than
-//                those at the end faces (default 1: uniform)
-//    grade_radial  in the outer blocks, the cells at the central block this
-//                many times thicker than those at the mantle (default 1)
+//    grade       along z, cell lengths in geometric progression, those at
+//                mid-length grade^(1 - 1/NZ) times those at the end faces
+//                (default 1: uniform)
+//    grade_radial  in the outer blocks, the radial cells at the central block
+//                grade_radial^(1 - 1/NR) times as thick as those at the mantle
+//                (default 1)
 //                Either keeps the meshes of one value similar under refinement
 //                (one family for Richardson extrapolation).
 //

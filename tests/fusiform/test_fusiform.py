@@ -34,6 +34,7 @@ import csv
 import functools
 import math
 import os
+import shutil
 import subprocess
 import sys
 
@@ -426,14 +427,22 @@ def rim_radius(z):
     return 15 + 5 * t + 5 * t ** 2 - 5 * t ** 3
 
 
+def progression(t, ratio):
+    """Where node i of N lies on an edge graded in geometric progression towards its end,
+    t = i / N (the first cell `ratio`^(1 - 1/N) times the last): the same at every N."""
+    return t if ratio == 1 else (1 - ratio ** -t) / (1 - 1 / ratio)
+
+
 @pytest.mark.parametrize("grade, grade_radial", [(1, 1), (4, 6)])
 def test_mesh_grading(tmp_path, grade, grade_radial):
     """A graded mesh family: the cells shrink towards the end faces (grade) and the mantle
-    (grade_radial) in geometric progression, and n = 1's nodes are n = 2's even nodes
-    (similar meshes, what Richardson extrapolation assumes)."""
-    coarse, fine = (mesh_nodes(tmp_path, refinement=n, grade=grade, grade_radial=grade_radial)
-                    for n in (1, 2))
-    z1, z2 = meridian_z(coarse), meridian_z(fine)
+    (grade_radial) in geometric progression, n = 1's nodes are n = 2's even nodes along the
+    meridian, and the radial nodes lie at the same fractions at n = 1, 2, 4 (similar
+    meshes, what Richardson extrapolation assumes)."""
+    assert shutil.which("gmsh"), "the gmsh program is not on PATH (apt: gmsh)"
+    meshes = {n: mesh_nodes(tmp_path, refinement=n, grade=grade, grade_radial=grade_radial)
+              for n in (1, 2, 4)}
+    z1, z2 = meridian_z(meshes[1]), meridian_z(meshes[2])
     assert len(z1) == 21 and len(z2) == 41, (len(z1), len(z2))
     # (Gmsh integrates a graded size along the curve: 0.002 mm off, 0.2 % of the end cell)
     assert max(abs(a - b) for a, b in zip(z1, z2[::2])) < 0.005, "n = 1 nodes not on n = 2's"
@@ -442,12 +451,15 @@ def test_mesh_grading(tmp_path, grade, grade_radial):
     first, middle = z2[1] - z2[0], z2[20] - z2[19]
     assert middle / first == pytest.approx(grade ** (19 / 20) * math.sqrt(1 + 1 / 25),
                                            rel=0.01)
-    # radially at z = 0 on the 45-degree line: from the core corner (radius 5) to the rim
-    radii = sorted(math.hypot(x, y) for x, y, z in fine
-                   if abs(z) < 1e-9 and x > 0 and abs(x - y) < 1e-9 and math.hypot(x, y) >= 5 - 1e-9)
-    cells = [b - a for a, b in zip(radii, radii[1:])]
-    assert len(cells) == 5 and sum(cells) == pytest.approx(5)
-    assert cells[0] / cells[-1] == pytest.approx(grade_radial ** (4 / 5), rel=1e-6)
+    # radially at z = 0 on the 45-degree line, from the core corner (radius 5) to the rim
+    # (radius 10): the closed form at every n
+    for n, nodes in meshes.items():
+        radii = sorted(math.hypot(x, y) for x, y, z in nodes if abs(z) < 1e-9 and x > 0
+                       and abs(x - y) < 1e-9 and math.hypot(x, y) >= 5 - 1e-9)
+        cells = math.ceil(2.5 * n)
+        expected = [5 + 5 * progression(i / cells, grade_radial) for i in range(cells + 1)]
+        assert len(radii) == cells + 1 and max(
+            abs(r - e) for r, e in zip(radii, expected)) < 1e-6, (n, radii, expected)
 
 
 def main():
