@@ -959,7 +959,9 @@ def map_analysis(records, reference_choice, sets=()):
         if not candidates:
             continue
         ref = max(candidates, key=lambda r: (r.get("unknowns") or 0, r["degree"],
-                                             r.get("fbar", False), -r["dt"]))
+                                             r.get("fbar", False), -r["dt"],
+                                             not any(s.startswith("mesh.set.")
+                                                     for s in r["sets"])))
         out["reference"][case] = {"name": ref["name"], "quantity": quantity,
                                   "value": ref[quantity]}
         add_map_points(out, runs, case, quantity, ref["name"], ref[quantity], sets)
@@ -1024,7 +1026,8 @@ def plot_map(analysis, path, runs):
         if ref.get("extrapolated"):
             # the reference is no run: its finest run's error bar (GCI) as a band
             ax.axhspan(floor, ref["gci_finest"], color="0.9", zorder=0,
-                       label=f"below graded F-bar n = 6's GCI ({ref['gci_finest']:.3%}): "
+                       label=f"below {report.REFERENCE_FAMILY} F-bar n = 6's GCI "
+                             f"({ref['gci_finest']:.3%}): "
                              "not resolved")
             against = f"{ref['name']} ({ref['quantity']} = {ref['value']:.6g})"
         else:

@@ -262,11 +262,12 @@ EndFor
 // Structured mesh
 // ---------------------------------------------------------------------------
 Transfinite Curve{e[], arc[]} = NC + 1;
-// grading: cell lengths in geometric progression, the cells at the end faces
-// (grade) and at the mantle (grade_radial) that many times shorter than those
-// at mid-length and at the central block.  A per-cell ratio grade^(1/NZ) puts
-// node i at phi(i / NZ) with phi independent of n, so the meshes of one grade
-// stay similar under refinement.
+// grading: cell lengths in geometric progression, shortest at the end faces
+// (grade) and at the mantle (grade_radial), the ratios of the header.  A
+// per-cell ratio grade^(1/NZ) puts node i at phi(i / NZ) with phi independent
+// of n: exactly on the straight radial lines (similar for even n, whose radial
+// count 2.5 n is exact), to about 0.002 mm along the curved profiles (Gmsh
+// integrates the graded size along them).
 qz = grade^(1 / NZ);
 qr = grade_radial^(1 / NR);
 Transfinite Curve{rl[]} = NR + 1 Using Progression 1 / qr;   // inner -> rim
