@@ -61,19 +61,12 @@ void write_checkpoint(const std::vector<std::shared_ptr<fem::Function<double>>>&
     return;
 
   // the binary of step k has its own name; the JSON naming it is renamed into
-  // place last, and only then is the previous binary removed: a kill at any
-  // moment leaves one consistent pair
+  // place last, and only then are older binaries removed: a kill at any moment
+  // leaves one consistent pair, and the next checkpoint removes what such a
+  // kill left behind
   const std::int64_t step = state.at("step").get<std::int64_t>();
   const std::string name = "checkpoint_" + std::to_string(step) + ".bin";
   const std::string bin = directory + "/" + name, json = directory + "/checkpoint.json";
-  std::string previous;
-  try
-  {
-    previous = nlohmann::json::parse(std::ifstream(json)).value("binary", "");
-  }
-  catch (const std::exception&)
-  {
-  }
   {
     std::ofstream out(bin + ".tmp", std::ios::binary);
     const std::int64_t header[4] = {magic, bs, state.at("step").get<std::int64_t>(), n_fields};
@@ -87,8 +80,19 @@ void write_checkpoint(const std::vector<std::shared_ptr<fem::Function<double>>>&
   with_name["binary"] = name;
   std::ofstream(json + ".tmp") << with_name.dump(1) << "\n";
   std::filesystem::rename(json + ".tmp", json);
-  if (!previous.empty() and previous != name)
-    std::filesystem::remove(directory + "/" + previous);
+  for (const auto& entry : std::filesystem::directory_iterator(directory))
+  {
+    const std::string file = entry.path().filename().string();
+    auto ends_with = [&file](const std::string& tail)
+    {
+      return file.size() > tail.size()
+             and file.compare(file.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    const bool binary
+        = file.rfind("checkpoint_", 0) == 0 and (ends_with(".bin") or ends_with(".bin.tmp"));
+    if (binary and file != name)
+      std::filesystem::remove(entry.path());
+  }
 }
 
 nlohmann::json read_checkpoint(const std::vector<std::shared_ptr<fem::Function<double>>>& fields,

@@ -426,6 +426,8 @@ def resumed(build, module_scratch):
     o["uninterrupted"] = run(build, [scene, "--out", ref, "--quiet"] + extra)
     o["state"] = kill_after(build, scene, killed, 4, extra=extra)
     o["summary_after_kill"] = os.path.exists(os.path.join(killed, "summary.json"))
+    # what a kill between the checkpoint JSON's rename and the old binary's removal leaves
+    write(os.path.join(killed, "checkpoint_0.bin"), "left by a kill")
     o["resume"] = run(build, [scene, "--out", killed, "--resume", "--quiet"] + extra)
     if o["resume"].returncode == 0:
         o["compare"] = compare(ref, killed, "kill + resume")
