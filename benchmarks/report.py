@@ -97,6 +97,12 @@ class Results:
 # faces (z), the free shortening's towards the mantle (radially)
 REFERENCE_GRADINGS = {"isometric": "mesh.set.grade=4", "free": "mesh.set.grade_radial=6"}
 
+
+def mesh_numbers(sets):
+    """The Gmsh numbers among a run's --set list (mesh.set.NAME=VALUE): a mesh choice."""
+    return [s for s in sets if s.startswith("mesh.set.")]
+
+
 # Run aliases for the template: COMBI, 0.05 s steps, MUMPS on one rank unless the name
 # says otherwise; q1 plain trilinear hexahedra, fb F-bar, q2 triquadratic, p1/p2
 # tetrahedra; n2/n4 the refinement (n = 1 otherwise); k100 kappa = 100.
@@ -230,7 +236,8 @@ RUNS = {
     "kpl6_split_free_k1000": "kappa_combi_free_hex1fbar_n6_dt0.05_gmres-schur_np2_rtol0.0001"
                            "_kappa1000_penalty_split_factorizationlower",
     # the graded families (phase reference): n = 2, 4, 6 with the n = 4 runs' settings
-    **{f"kgr{n}_{case[:4].replace('isom', 'iso')}": f"kappa_combi_{case}_hex1fbar_n{n}_dt0.05_gmres-schur_np2_rtol0.0001"
+    **{f"kgr{n}_{'iso' if case == 'isometric' else case}":
+       f"kappa_combi_{case}_hex1fbar_n{n}_dt0.05_gmres-schur_np2_rtol0.0001"
        f"_kappa1000_{grading.replace('=', '')}_penalty_split_factorizationlower"
        for case, grading in REFERENCE_GRADINGS.items() for n in (2, 4, 6)},
     # Q2: the reference of the map, its quadrature variants, kappa = 100
@@ -698,8 +705,7 @@ def kappa_of(r):
 def kappa_groups(res):
     """The kappa study's runs by (candidate, n, ranks), in the page's order; the kappas."""
     # the graded meshes belong to the reference study, not to the kappa study's groups
-    runs = [r for r in res.raw.get("kappa_runs") or []
-            if not any(s.startswith("mesh.set.") for s in r["sets"])]
+    runs = [r for r in res.raw.get("kappa_runs") or [] if not mesh_numbers(r["sets"])]
     kappas = sorted({kappa_of(r) for r in runs})
     groups = {}
     for r in runs:
@@ -894,6 +900,7 @@ REFERENCE_SEQUENCE = ((1, "fb_iso", "fb_free"), (2, "fb2_iso", "fb2_free"),
                       (4, "kpl4_split_k1000", "kpl4_split_free_k1000"),
                       (6, "kpl6_split_k1000", "kpl6_split_free_k1000"))
 GRADED_SEQUENCE = tuple((n, f"kgr{n}_iso", f"kgr{n}_free") for n in (2, 4, 6))
+SEQUENCES = {"uniform": REFERENCE_SEQUENCE, "graded": GRADED_SEQUENCE}
 # the family whose extrapolation is the map's reference
 REFERENCE_FAMILY = "graded"
 # the runs of phase reference and kappa-n4 that are points of the map at the preset kappa
@@ -906,8 +913,7 @@ def reference_aliases(case, meshes=(2, 4, 6), family=REFERENCE_FAMILY):
     """The aliases of the runs of a case at the refinements `meshes` (by default the
     similar meshes n = 2, 4, 6) of a mesh family, "graded" or "uniform"."""
     column = 1 if case == "isometric" else 2
-    sequence = GRADED_SEQUENCE if family == "graded" else REFERENCE_SEQUENCE
-    return [row[column] for row in sequence if row[0] in meshes]
+    return [row[column] for row in SEQUENCES[family] if row[0] in meshes]
 
 
 def reference_quantity(case):
@@ -969,7 +975,7 @@ def reference_family_table(res, family):
     construction)."""
     law = reference_extrapolation(res, "isometric", family=family)
     free_law = reference_extrapolation(res, "free", family=family)
-    sequence = GRADED_SEQUENCE if family == "graded" else REFERENCE_SEQUENCE
+    sequence = SEQUENCES[family]
     finest = cell_size(res.run(RUNS[sequence[-1][1]]))
     solver = lambda r: (SOLVER_NAMES.get(r["solver"]) or r.get("candidate", r["solver"])) \
         + f", {r['ranks']} rank" + ("s" if r["ranks"] > 1 else "")

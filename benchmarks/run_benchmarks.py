@@ -960,8 +960,7 @@ def map_analysis(records, reference_choice, sets=()):
             continue
         ref = max(candidates, key=lambda r: (r.get("unknowns") or 0, r["degree"],
                                              r.get("fbar", False), -r["dt"],
-                                             not any(s.startswith("mesh.set.")
-                                                     for s in r["sets"])))
+                                             not report.mesh_numbers(r["sets"])))
         out["reference"][case] = {"name": ref["name"], "quantity": quantity,
                                   "value": ref[quantity]}
         add_map_points(out, runs, case, quantity, ref["name"], ref[quantity], sets)
@@ -972,7 +971,7 @@ def map_analysis(records, reference_choice, sets=()):
 def preset(sets):
     """A run's --set list without the preset kappa that some phases name explicitly and
     without mesh numbers (a mesh, not a model change)."""
-    return [x for x in sets if x != "kappa=1000" and not x.startswith("mesh.set.")]
+    return [x for x in sets if x != "kappa=1000" and x not in report.mesh_numbers(sets)]
 
 
 def add_map_points(out, runs, case, quantity, ref_name, reference, sets):
@@ -1051,8 +1050,8 @@ def plot_map(analysis, path, runs):
                 text, offset = f"dt={p['dt']:g}", (2, 5)
             else:
                 quadrature = [a.split()[-1] for a in p.get("petsc", []) if "--quadrature-degree" in a]
-                graded = [x.split("=")[0].replace("mesh.set.", "") for x in p["sets"]
-                          if x.startswith("mesh.set.grade")]
+                graded = [x.split("=")[0].replace("mesh.set.", "")
+                          for x in report.mesh_numbers(p["sets"]) if "grade" in x]
                 text = (f"{p['element']} n={p['n']}" + "".join(f" q{q}" for q in quadrature)
                         + "".join(f" {g}" for g in graded)
                         + ("*" if any("-snes_max_it" in a for a in p.get("petsc", [])) else ""))

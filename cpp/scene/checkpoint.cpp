@@ -83,13 +83,8 @@ void write_checkpoint(const std::vector<std::shared_ptr<fem::Function<double>>>&
   for (const auto& entry : std::filesystem::directory_iterator(directory))
   {
     const std::string file = entry.path().filename().string();
-    auto ends_with = [&file](const std::string& tail)
-    {
-      return file.size() > tail.size()
-             and file.compare(file.size() - tail.size(), tail.size(), tail) == 0;
-    };
-    const bool binary
-        = file.rfind("checkpoint_", 0) == 0 and (ends_with(".bin") or ends_with(".bin.tmp"));
+    const bool binary = file.starts_with("checkpoint_")
+                        and (file.ends_with(".bin") or file.ends_with(".bin.tmp"));
     if (binary and file != name)
       std::filesystem::remove(entry.path());
   }
