@@ -222,6 +222,9 @@ RUNS = {
        f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
        "_fieldsplit_u_pc_typehypre"
        for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (100, 1000, 10000))) for k in kappas},
+    # and with p-multigrid on the displacement block (n = 1)
+    **{f"kthm_k{k}": f"kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa{k}"
+       "_fieldsplit_u_pc_typemg" for k in (10, 100, 1000, 10000)},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -695,6 +698,9 @@ KAPPA_CANDIDATES = {
     # BoomerAMG for systems on the displacement block (its settings in
     # configure_mixed_split) in place of GAMG
     "Taylor-Hood, Schur split, BoomerAMG": ("gmres-schur", ("-fieldsplit_u_pc_type hypre",)),
+    # p-multigrid on the displacement block: Q2 -> Q1 by interpolation, GAMG on P^T A P
+    # (cpp/fem/p_multigrid.cpp), Jacobi-Chebyshev on Q2
+    "Taylor-Hood, Schur split, p-multigrid": ("gmres-schur", ("-fieldsplit_u_pc_type mg",)),
 }
 
 

@@ -223,11 +223,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
         if os.path.exists(os.path.join(args.build, "fusiform")):
             break
         time.sleep(20)
-    try:
-        result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-        returncode, stderr = result.returncode, result.stderr
-    except subprocess.TimeoutExpired:
-        returncode, stderr = "timeout", f"killed after {timeout} s"
+    returncode, stderr = stiffsoft.run_with_timeout(command, timeout)
     elapsed = time.time() - start
     after = loadavg()
     record = {"name": name, "model": model, "case": case, "cell": cell, "degree": degree,
@@ -553,7 +549,8 @@ def phase_fbar(args, records):
 # 418,693 unknowns) and the n = 1 timeout in place of --kappa-timeout.  Taylor-Hood's
 # Schur split is PETSc's field split on (u | theta, p), the inf-sup stable pair.
 KAPPA_ELEMENTS = {label: (dict(degree=2, taylor_hood=True), (1, 2), 900)
-                  for label in ("Taylor-Hood, Schur split", "Taylor-Hood, Schur split, BoomerAMG")}
+                  for label in ("Taylor-Hood, Schur split", "Taylor-Hood, Schur split, BoomerAMG",
+                                "Taylor-Hood, Schur split, p-multigrid")}
 
 
 def kappa_runs(args):

@@ -6,6 +6,7 @@ import glob
 import json
 import os
 import shlex
+import signal
 import subprocess
 import time
 
@@ -35,12 +36,21 @@ def loadavg():
 
 
 def run_with_timeout(command, timeout):
-    """(exit status or "timeout", stderr) of a command."""
+    """(exit status or "timeout", stderr) of a command.  On the timeout its whole process
+    group is killed: killing only the child (/usr/bin/time) left mpirun's ranks running,
+    loading the machine under the runs that followed."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, start_new_session=True)
     try:
-        result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-        return result.returncode, result.stderr
+        _, stderr = process.communicate(timeout=timeout)
+        return process.returncode, stderr
     except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.communicate()
         return "timeout", f"killed after {timeout} s"
+    except BaseException:  # Ctrl-C no longer reaches the new session: take it down too
+        os.killpg(process.pid, signal.SIGKILL)
+        raise
 
 
 def config_sets(config):

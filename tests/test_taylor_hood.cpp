@@ -2,15 +2,20 @@
 // residual [R_u; R_q] in (u, q), q = (theta, p): central differences of the
 // assembled residual along a smooth direction in all of u, theta and p, for
 // every paper model (WKM's stress holds omega_a, GIANT's omega_a comes from its
-// quadrature-point kernel, both read the fibre stretch at F_bar).
+// quadrature-point kernel, both read the fibre stretch at F_bar).  And p-multigrid's
+// prolongation: a trilinear field is a degree-1 function, so interpolating its
+// degree-1 values into the degree-2 space must give its degree-2 values.
 #include "support/finite_differences.h"
 
 #include <fem/muscle_problem.h>
+#include <fem/p_multigrid.h>
 #include <material/parameters.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <dolfinx/fem/assembler.h>
+#include <dolfinx/la/petsc.h>
 #include <dolfinx/mesh/generation.h>
 #include <gtest/gtest.h>
 #include <xtensor/xarray.hpp>
@@ -181,3 +186,50 @@ INSTANTIATE_TEST_SUITE_P(Models, TaylorHoodTangent,
                          ::testing::Values(Model("combi"), Model("ble"), Model("wkm"),
                                            Model("giant")),
                          [](const auto& info) { return to_string(info.param); });
+
+TEST(DegreeOneCoarsening, ProlongsDegreeOneFieldsExactly)
+{
+  Body b = make(Model("combi"));
+  auto V = b.problem->V();
+  // Dirichlet rows: components x and z of the nodes on the face X = 0
+  const std::vector<double> nodes = V->tabulate_dof_coordinates(false);
+  std::vector<std::int32_t> dirichlet;
+  for (std::size_t i = 0; i < nodes.size() / 3; ++i)
+    if (std::abs(nodes[3 * i]) < 1e-12)
+      dirichlet.insert(dirichlet.end(), {std::int32_t(3 * i), std::int32_t(3 * i + 2)});
+  std::int64_t fixed = dirichlet.size(); // collective: a rank may own no such node
+  MPI_Allreduce(MPI_IN_PLACE, &fixed, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  ASSERT_GT(fixed, 0);
+  DegreeOneCoarsening coarsening(V, dirichlet);
+
+  auto g = [](double X, double Y, double Z) -> std::array<double, 3>
+  { return {1 + 2 * X - Y + 0.5 * X * Y * Z, X * Y - 3 * Z, 0.2 + Y * Z - X * Z}; };
+  fem::Function<double> coarse(std::const_pointer_cast<fem::FunctionSpace>(
+      coarsening.coarse_space()));
+  interpolate<3>(coarse, g);
+  interpolate<3>(*b.problem->u(), g);
+  Vec x = la::petsc::create_vector_wrap(*coarse.x());
+  Vec y;
+  MatCreateVecs(coarsening.prolongation(), nullptr, &y);
+  MatMult(coarsening.prolongation(), x, y);
+  const PetscScalar* prolonged;
+  VecGetArrayRead(y, &prolonged);
+  PetscInt owned;
+  VecGetLocalSize(y, &owned);
+  std::span<const double> fine = b.problem->u()->x()->array();
+  double worst = 0, largest = 0;
+  for (PetscInt i = 0; i < owned; ++i)
+  {
+    const bool fixed = std::binary_search(dirichlet.begin(), dirichlet.end(), i);
+    worst = std::max(worst, std::abs(prolonged[i] - (fixed ? 0.0 : fine[i])));
+    largest = std::max(largest, std::abs(fine[i]));
+  }
+  VecRestoreArrayRead(y, &prolonged);
+  VecDestroy(&x);
+  VecDestroy(&y);
+  // over all ranks: a rank may own no dof of this small mesh
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  EXPECT_GT(largest, 1.0);
+  EXPECT_LT(worst, 1e-13 * largest);
+}

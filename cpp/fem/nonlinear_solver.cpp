@@ -3,6 +3,7 @@
 #include "../common/errors.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
+#include "p_multigrid.h"
 #include "rigid_body_modes.h"
 
 #include <algorithm>
@@ -223,6 +224,10 @@ NonlinearSolver::~NonlinearSolver()
     MatDestroy(&M);
   MatDestroy(&_J_nest);
   MatDestroy(&_schur_pre);
+  KSPDestroy(&_u_ksp);
+  KSPDestroy(&_q_ksp);
+  for (Vec* v : {&_mix_u_in, &_mix_u_out, &_mix_q_in, &_mix_q_out, &_mix_u_rhs})
+    VecDestroy(v);
   MatDestroy(&_J_mixed);
   for (Vec* v : {&_x_ext, &_rhs, &_sol, &_tmp})
     VecDestroy(v);

@@ -12,6 +12,7 @@
 
 namespace muscle
 {
+class DegreeOneCoarsening;
 class DisplacementConstraint;
 class FbarCellUnknowns;
 
@@ -249,6 +250,18 @@ private:
   /// _schur_pre from A_qq: the q block's Schur complement approximated
   void update_schur_preconditioner();
   Mat _schur_pre = nullptr;
+  /// gmres-schur with -fieldsplit_u_pc_type mg: the field split's upper block
+  /// factorisation applied here, p-multigrid (p_multigrid.h) on u
+  void configure_mixed_pmg(PC pc);
+  static PetscErrorCode mixed_pmg_apply(PC pc, Vec r, Vec z);
+  /// the coarse level's matrix from the current A, handed to its solver
+  void update_mixed_pmg();
+  std::unique_ptr<DegreeOneCoarsening> _coarsening;
+  KSP _u_ksp = nullptr; ///< p-multigrid on A (-fieldsplit_u_ options)
+  KSP _q_ksp = nullptr; ///< the Schur approximation factored (-fieldsplit_q_ options)
+  Vec _mix_u_in = nullptr, _mix_u_out = nullptr; ///< u parts of [u | q] (no own array)
+  Vec _mix_q_in = nullptr, _mix_q_out = nullptr; ///< q parts (no own array)
+  Vec _mix_u_rhs = nullptr;
   double _shear_modulus = 0; ///< of the law at rest (the Schur approximation's scale)
   /// the coupling blocks under the constraint: T^T A_uq, A_qu T
   void reduce_mixed_blocks(bool first);

@@ -10,6 +10,7 @@
 #include "../common/petsc_options.h"
 #include "../material/material_point.h"
 #include "constraint.h"
+#include "p_multigrid.h"
 #include "rigid_body_modes.h"
 
 #include <cmath>
@@ -196,6 +197,8 @@ void NonlinearSolver::assemble_mixed_jacobian()
   MatNorm(_J_mixed, NORM_INFINITY, &_mixed_norm);
   if (_schur_pre)
     update_schur_preconditioner();
+  if (_coarsening)
+    update_mixed_pmg();
 }
 
 double NonlinearSolver::mixed_floor(SNES snes) const
@@ -289,6 +292,14 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   // small: two unknowns per degree-1 node).  The kappa part is kept exactly and
   // the pair is inf-sup stable, so the count does not grow with kappa
   // (BENCHMARKS.md, "Preconditioners against kappa").
+  _shear_modulus = shear_modulus_at_rest(_problem.parameters(), _problem.kernel_name());
+  MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
+  update_schur_preconditioner();
+  if (string_option("-fieldsplit_u_pc_type") == "mg")
+  {
+    configure_mixed_pmg(pc);
+    return;
+  }
   PetscInt n, start, end;
   VecGetLocalSize(_x, &n);
   VecGetOwnershipRange(_x_ext, &start, &end);
@@ -309,9 +320,6 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   ISDestroy(&q);
   PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR);
   PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER);
-  _shear_modulus = shear_modulus_at_rest(_problem.parameters(), _problem.kernel_name());
-  MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
-  update_schur_preconditioner();
   PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, _schur_pre);
   // the sub-solvers through their option prefixes: -fieldsplit_* given by the
   // user win
@@ -340,6 +348,138 @@ void NonlinearSolver::configure_mixed_split(PC pc)
       set_unless_given({{"-fieldsplit_u_pc_hypre_boomeramg_nodal_coarsen", "6"},
                         {"-fieldsplit_u_pc_hypre_boomeramg_vec_interp_variant", "2"}});
   }
+}
+
+void NonlinearSolver::configure_mixed_pmg(PC pc)
+{
+  if (_constraint)
+    throw InputError("-fieldsplit_u_pc_type mg (p-multigrid on the displacement block): "
+                     "not with a linear constraint (uniform_axial, tie); use the default "
+                     "-fieldsplit_u_pc_type gamg");
+  std::vector<std::int32_t> dirichlet;
+  for (const auto& bc : _bcs)
+  {
+    auto [dofs, owned] = bc->dof_indices();
+    dirichlet.insert(dirichlet.end(), dofs.begin(), dofs.end());
+  }
+  _coarsening = std::make_unique<DegreeOneCoarsening>(_problem.V(), dirichlet);
+  MPI_Comm comm = _problem.mesh()->comm();
+  PetscInt n;
+  VecGetLocalSize(_x, &n);
+  const PetscInt nq = owned_size(*_bq);
+  VecCreateMPIWithArray(comm, 1, n, PETSC_DECIDE, nullptr, &_mix_u_in);
+  VecCreateMPIWithArray(comm, 1, n, PETSC_DECIDE, nullptr, &_mix_u_out);
+  VecCreateMPIWithArray(comm, 1, nq, PETSC_DECIDE, nullptr, &_mix_q_in);
+  VecCreateMPIWithArray(comm, 1, nq, PETSC_DECIDE, nullptr, &_mix_q_out);
+  VecDuplicate(_x, &_mix_u_rhs);
+
+  // the options the field split would read, under the same prefixes; Jacobi on
+  // the degree-2 level, not PCMG's SOR: 35 Krylov its per Newton it against 30 at
+  // n = 1, but 44 s against 76 s (BENCHMARKS.md, "Preconditioners against kappa")
+  set_unless_given({{"-fieldsplit_q_pc_type", "lu"},
+                    {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"},
+                    {"-fieldsplit_u_mg_levels_pc_type", "jacobi"}});
+  KSPCreate(comm, &_q_ksp);
+  KSPSetOptionsPrefix(_q_ksp, "fieldsplit_q_");
+  KSPSetType(_q_ksp, KSPPREONLY);
+  KSPSetOperators(_q_ksp, _schur_pre, _schur_pre);
+  KSPSetFromOptions(_q_ksp);
+
+  KSPCreate(comm, &_u_ksp);
+  KSPSetOptionsPrefix(_u_ksp, "fieldsplit_u_");
+  KSPSetType(_u_ksp, KSPPREONLY);
+  KSPSetOperators(_u_ksp, _A, _A);
+  PC mg;
+  KSPGetPC(_u_ksp, &mg);
+  PCSetType(mg, PCMG);
+  PCMGSetLevels(mg, 2, nullptr);
+  PCMGSetInterpolation(mg, 1, _coarsening->prolongation());
+  PCMGSetGalerkin(mg, PC_MG_GALERKIN_NONE); // P^T A P formed here, with its modes
+  KSP coarse;
+  PCMGGetCoarseSolve(mg, &coarse);
+  KSPSetType(coarse, KSPPREONLY);
+  PC amg;
+  KSPGetPC(coarse, &amg);
+  PCSetType(amg, PCGAMG);
+  update_mixed_pmg();
+  KSPSetFromOptions(_u_ksp);
+
+  PCSetType(pc, PCSHELL);
+  PCShellSetContext(pc, this);
+  PCShellSetApply(pc, mixed_pmg_apply);
+  PCShellSetName(pc, "Taylor-Hood Schur factorisation, p-multigrid on u");
+  PCShellSetView(pc, [](PC shell, PetscViewer viewer) -> PetscErrorCode
+  {
+    NonlinearSolver* self;
+    PCShellGetContext(shell, &self);
+    KSPView(self->_q_ksp, viewer);
+    KSPView(self->_u_ksp, viewer);
+    return 0;
+  });
+}
+
+void NonlinearSolver::update_mixed_pmg()
+{
+  Mat coarse_matrix = _coarsening->coarse_matrix(_A);
+  PC mg;
+  KSPGetPC(_u_ksp, &mg);
+  KSP coarse;
+  PCMGGetCoarseSolve(mg, &coarse);
+  KSPSetOperators(coarse, coarse_matrix, coarse_matrix);
+  // PCMG and GAMG keep a failure until it is cleared: a new Jacobian starts clean
+  PC amg;
+  KSPGetPC(coarse, &amg);
+  for (PC p : {mg, amg})
+    PCSetFailedReason(p, PC_NOERROR);
+}
+
+PetscErrorCode NonlinearSolver::mixed_pmg_apply(PC pc, Vec r, Vec z)
+{
+  // upper factorisation: z_q = S^-1 r_q, z_u = A^-1 (r_u - A_uq z_q)
+  NonlinearSolver* self;
+  PCShellGetContext(pc, &self);
+  PetscInt n;
+  VecGetLocalSize(self->_x, &n);
+  const PetscScalar* rr;
+  PetscScalar* zz;
+  VecGetArrayRead(r, &rr);
+  VecGetArray(z, &zz);
+  VecPlaceArray(self->_mix_u_in, rr);
+  VecPlaceArray(self->_mix_q_in, rr + n);
+  VecPlaceArray(self->_mix_u_out, zz);
+  VecPlaceArray(self->_mix_q_out, zz + n);
+  // as condensed_solve: a failed inner solve (or a PETSc error in it) fails this
+  // linear solve, and the failure is cleared before the next one
+  PCSetFailedReason(pc, PC_NOERROR);
+  bool failed = false;
+  auto solve = [&failed](KSP ksp, Vec b, Vec x)
+  {
+    if (failed)
+      return;
+    KSPConvergedReason reason = KSP_DIVERGED_PC_FAILED;
+    if (!KSPSolve(ksp, b, x))
+      KSPGetConvergedReason(ksp, &reason);
+    failed = reason < 0;
+  };
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  solve(self->_q_ksp, self->_mix_q_in, self->_mix_q_out);
+  if (!failed)
+  {
+    MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs);
+    VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in);
+  }
+  solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
+  PetscPopErrorHandler();
+  for (Vec v : {self->_mix_u_in, self->_mix_q_in, self->_mix_u_out, self->_mix_q_out})
+    VecResetArray(v);
+  VecRestoreArray(z, &zz);
+  VecRestoreArrayRead(r, &rr);
+  if (failed)
+  {
+    PCSetFailedReason(pc, PC_SUBPC_ERROR);
+    VecSet(z, 0.0);
+  }
+  return 0;
 }
 
 } // namespace muscle

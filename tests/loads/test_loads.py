@@ -250,16 +250,36 @@ def test_taylor_hood_cantilever(build, scratch, record):
 
 def test_taylor_hood_two_ranks(build, scratch):
     """The cantilever's first load steps on 1 and 2 MPI ranks, and with the Schur split on
-    2 (its field split and GAMG partitioned): the same tip."""
+    2 (its field split and GAMG partitioned; and with p-multigrid on the displacement
+    block, -fieldsplit_u_pc_type mg): the same tip."""
     tips = []
-    for ranks, solver in ((1, "lu"), (2, "lu"), (2, "gmres-schur")):
-        out = os.path.join(scratch, f"np{ranks}_{solver}")
+    pmg = ["solver.petsc=-fieldsplit_u_pc_type mg -ksp_view"]
+    for ranks, solver, petsc in ((1, "lu", []), (2, "lu", []), (2, "gmres-schur", []),
+                                 (2, "gmres-schur", pmg)):
+        out = os.path.join(scratch, f"np{ranks}_{solver}_{len(petsc)}")
         result = muscle_run(build, CANTILEVER, out, QUIET + TAYLOR_HOOD + [
-            "time.end=0.2", f"solver.linear={solver}"], ranks=ranks)
+            "time.end=0.2", f"solver.linear={solver}"] + petsc, ranks=ranks)
         assert result.returncode == 0, result.stdout + result.stderr
         tips.append(series_rows(out)[-1]["tip_z"])
     assert abs(tips[1] - tips[0]) < 1e-8 * abs(tips[0]), tips
     assert abs(tips[2] - tips[0]) < 1e-7 * abs(tips[0]), tips
+    assert abs(tips[3] - tips[0]) < 1e-7 * abs(tips[0]), tips
+    view = result.stdout  # the p-multigrid run's: two levels, GAMG below, Jacobi above
+    for line in ("p-multigrid on u", "type: mg", "levels=2", "type: gamg"):
+        assert line in view, (line, view[-3000:])
+    fine = view.index("(fieldsplit_u_mg_levels_1_)")  # the Q2 level's smoother
+    assert "type: jacobi" in view[fine:fine + 1500], view[fine:fine + 1500]
+
+
+def test_taylor_hood_p_multigrid_needs_no_constraint(build, scratch):
+    """p-multigrid's prolongation acts on the whole displacement; under a linear
+    constraint (here uniform_axial) the message says so and names the default."""
+    result = muscle_run(build, os.path.join(HERE, "..", "..", "demos", "scenes", "fusiform_free.yaml"),
+                        scratch, QUIET + TAYLOR_HOOD + [
+                            "solver.linear=gmres-schur", "time.end=0.005",
+                            "solver.petsc=-fieldsplit_u_pc_type mg"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "uniform_axial" in result.stderr and "gamg" in result.stderr, result.stderr
 
 
 @pytest.mark.parametrize("model", ["ble", "wkm", "giant", "combi"])

@@ -1,0 +1,80 @@
+#include "p_multigrid.h"
+
+#include "../common/errors.h"
+#include "rigid_body_modes.h"
+
+#include <basix/finite-element.h>
+#include <dolfinx/fem/DofMap.h>
+#include <dolfinx/fem/interpolate.h> // discreteoperators.h uses its impl:: without including it
+#include <dolfinx/fem/discreteoperators.h>
+#include <dolfinx/fem/sparsitybuild.h>
+#include <dolfinx/fem/utils.h>
+#include <dolfinx/la/SparsityPattern.h>
+#include <dolfinx/la/petsc.h>
+#include <dolfinx/mesh/Mesh.h>
+#include <dolfinx/mesh/cell_types.h>
+#include <numeric>
+
+using namespace dolfinx;
+
+namespace muscle
+{
+
+DegreeOneCoarsening::DegreeOneCoarsening(std::shared_ptr<const fem::FunctionSpace> V,
+                                         std::span<const std::int32_t> dirichlet_dofs)
+{
+  auto mesh = V->mesh();
+  const int bs = V->dofmap()->index_map_bs();
+  if (V->element()->basix_element().degree() != 2 or bs != 3)
+    throw InputError("p-multigrid on the displacement block: needs a degree-2 vector "
+                     "displacement space (Taylor-Hood elements)");
+  const basix::FiniteElement e1 = basix::create_element(
+      basix::element::family::P, mesh::cell_type_to_basix_type(mesh->topology().cell_type()),
+      1, basix::element::lagrange_variant::gll_warped, false);
+  _V1 = std::make_shared<fem::FunctionSpace>(
+      fem::create_functionspace(std::const_pointer_cast<mesh::Mesh>(mesh), e1, bs));
+
+  const int tdim = mesh->topology().dim();
+  auto cell_map = mesh->topology().index_map(tdim);
+  std::vector<std::int32_t> cells(cell_map->size_local());
+  std::iota(cells.begin(), cells.end(), 0);
+  la::SparsityPattern pattern(mesh->comm(), {V->dofmap()->index_map, _V1->dofmap()->index_map},
+                              {bs, bs});
+  fem::sparsitybuild::cells(pattern, cells, {*V->dofmap(), *_V1->dofmap()});
+  pattern.assemble();
+  _P = la::petsc::create_matrix(mesh->comm(), pattern);
+  MatSetOption(_P, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE);
+  // a node shared by cells gets the same value from each: insert, not add
+  fem::interpolation_matrix<PetscScalar>(*_V1, *V,
+                                         la::petsc::Matrix::set_block_fn(_P, INSERT_VALUES));
+  MatAssemblyBegin(_P, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_P, MAT_FINAL_ASSEMBLY);
+  std::vector<PetscInt> rows(dirichlet_dofs.begin(), dirichlet_dofs.end());
+  MatZeroRowsLocal(_P, rows.size(), rows.data(), 0.0, nullptr, nullptr);
+  _modes = rigid_body_modes(*_V1, nullptr, false);
+}
+
+DegreeOneCoarsening::~DegreeOneCoarsening()
+{
+  MatDestroy(&_P);
+  MatDestroy(&_coarse);
+  MatNullSpaceDestroy(&_modes);
+}
+
+Mat DegreeOneCoarsening::coarse_matrix(Mat A)
+{
+  PetscObjectState pattern;
+  MatGetNonzeroState(A, &pattern);
+  if (_coarse and pattern == _pattern)
+    MatPtAP(A, _P, MAT_REUSE_MATRIX, PETSC_DEFAULT, &_coarse);
+  else
+  {
+    MatDestroy(&_coarse);
+    MatPtAP(A, _P, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_coarse);
+    MatSetNearNullSpace(_coarse, _modes);
+    _pattern = pattern;
+  }
+  return _coarse;
+}
+
+} // namespace muscle

@@ -1,0 +1,48 @@
+#pragma once
+
+#include <cstdint>
+#include <dolfinx/fem/FunctionSpace.h>
+#include <memory>
+#include <petscmat.h>
+#include <span>
+
+namespace muscle
+{
+
+/// The coarse level of p-multigrid on a degree-2 displacement space V (Q2 on
+/// hexahedra, P2 on tetrahedra): the degree-1 space of the same mesh, the
+/// prolongation P that interpolates its functions into V, and the Galerkin
+/// coarse matrix P^T A P carrying the degree-1 space's rigid-body modes, for
+/// GAMG.  Why: algebraic multigrid coarsens a degree-2 elasticity matrix badly
+/// (its Krylov count grows with the mesh, BENCHMARKS.md "Preconditioners
+/// against kappa"); on the degree-1 matrix it does what it does for Q1, and the
+/// step from degree 2 to 1 is geometric, so a smoother closes it at any h.
+class DegreeOneCoarsening
+{
+public:
+  /// `dirichlet_dofs`: V's local (unrolled) dofs with Dirichlet conditions; P's
+  /// rows there are zero, so the coarse correction leaves them as the smoother
+  /// set them (A's rows there are unit rows, whose scale the coarse matrix must
+  /// not see).  Collective.
+  DegreeOneCoarsening(std::shared_ptr<const dolfinx::fem::FunctionSpace> V,
+                      std::span<const std::int32_t> dirichlet_dofs);
+  ~DegreeOneCoarsening();
+  DegreeOneCoarsening(const DegreeOneCoarsening&) = delete;
+  DegreeOneCoarsening& operator=(const DegreeOneCoarsening&) = delete;
+
+  Mat prolongation() const { return _P; }
+  /// The degree-1 space (the coarse level's unknowns).
+  std::shared_ptr<const dolfinx::fem::FunctionSpace> coarse_space() const { return _V1; }
+  /// P^T A P for the current A: recomputed in place while A keeps its nonzero
+  /// pattern (contact can add entries: then made anew).  Owned here.
+  Mat coarse_matrix(Mat A);
+
+private:
+  std::shared_ptr<const dolfinx::fem::FunctionSpace> _V1;
+  Mat _P = nullptr;
+  Mat _coarse = nullptr;
+  MatNullSpace _modes = nullptr;
+  PetscObjectState _pattern = -1; ///< A's nonzero state when _coarse was made
+};
+
+} // namespace muscle
