@@ -286,12 +286,15 @@ void NonlinearSolver::update_schur_preconditioner()
 void NonlinearSolver::configure_mixed_split(PC pc)
 {
   // The displacement block sees the energy at F_bar with theta held: its
-  // stiffness is the deviatoric one, free of kappa, which multigrid handles;
-  // kappa lives in the q block.  Schur complement of q, approximated by A_qq
-  // with -M / mu in its pp part (update_schur_preconditioner) and factored (q is
-  // small: two unknowns per degree-1 node).  The kappa part is kept exactly and
-  // the pair is inf-sup stable, so the count does not grow with kappa
-  // (BENCHMARKS.md, "Preconditioners against kappa").
+  // stiffness is the deviatoric one, free of kappa; kappa lives in the q block.
+  // It has no bulk stiffness either (a dilation leaves F_bar alone), which AMG
+  // coarsens poorly: GAMG alone needs hundreds of iterations on it, against
+  // 15 on plain Q2's whole matrix (BENCHMARKS.md, "Preconditioners against
+  // kappa"); the outer GMRES corrects what one V-cycle leaves.  Schur
+  // complement of q, approximated by A_qq with -M / mu in its pp part
+  // (update_schur_preconditioner) and factored (q is small: two unknowns per
+  // degree-1 node).  The kappa part is kept exactly and the pair is inf-sup
+  // stable, so the count does not grow with kappa.
   _shear_modulus = shear_modulus_at_rest(_problem.parameters(), _problem.kernel_name());
   MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
   update_schur_preconditioner();
