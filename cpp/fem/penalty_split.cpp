@@ -32,6 +32,7 @@
 #include "../common/petsc_options.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
+#include "saddle_parts.h"
 
 #include <algorithm>
 #include <cmath>
@@ -95,34 +96,6 @@ void apply_B_and_BT(const std::vector<std::unique_ptr<FbarCellUnknowns>>& parts,
   });
 }
 
-/// A saddle vector pair (read, write) with their du parts placed in `du_in`, `du_out`
-/// (vectors without arrays of their own) for the scope.
-struct SaddleParts
-{
-  SaddleParts(Vec in, Vec out, Vec du_in, Vec du_out)
-      : _in(in), _out(out), _du_in(du_in), _du_out(du_out)
-  {
-    VecGetArrayRead(in, &x);
-    VecGetArray(out, &y);
-    VecGetLocalSize(du_in, &nu);
-    VecPlaceArray(du_in, x);
-    VecPlaceArray(du_out, y);
-  }
-  ~SaddleParts()
-  {
-    VecResetArray(_du_in);
-    VecResetArray(_du_out);
-    VecRestoreArray(_out, &y);
-    VecRestoreArrayRead(_in, &x);
-  }
-  SaddleParts(const SaddleParts&) = delete;
-  SaddleParts& operator=(const SaddleParts&) = delete;
-  const PetscScalar* x; ///< the whole input: du part, then q
-  PetscScalar* y;       ///< the whole output
-  PetscInt nu;          ///< entries of the du part
-private:
-  Vec _in, _out, _du_in, _du_out;
-};
 } // namespace
 
 void NonlinearSolver::create_penalty_split(MPI_Comm comm)

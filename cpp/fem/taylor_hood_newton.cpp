@@ -12,6 +12,7 @@
 #include "constraint.h"
 #include "p_multigrid.h"
 #include "rigid_body_modes.h"
+#include "saddle_parts.h"
 
 #include <cmath>
 #include <dolfinx/fem/assembler.h>
@@ -441,16 +442,6 @@ PetscErrorCode NonlinearSolver::mixed_pmg_apply(PC pc, Vec r, Vec z)
   // upper factorisation: z_q = S^-1 r_q, z_u = A^-1 (r_u - A_uq z_q)
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
-  PetscInt n;
-  VecGetLocalSize(self->_x, &n);
-  const PetscScalar* rr;
-  PetscScalar* zz;
-  VecGetArrayRead(r, &rr);
-  VecGetArray(z, &zz);
-  VecPlaceArray(self->_mix_u_in, rr);
-  VecPlaceArray(self->_mix_q_in, rr + n);
-  VecPlaceArray(self->_mix_u_out, zz);
-  VecPlaceArray(self->_mix_q_out, zz + n);
   // as condensed_solve: a failed inner solve (or a PETSc error in it) fails this
   // linear solve, and the failure is cleared before the next one
   PCSetFailedReason(pc, PC_NOERROR);
@@ -464,19 +455,19 @@ PetscErrorCode NonlinearSolver::mixed_pmg_apply(PC pc, Vec r, Vec z)
       KSPGetConvergedReason(ksp, &reason);
     failed = reason < 0;
   };
-  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-  solve(self->_q_ksp, self->_mix_q_in, self->_mix_q_out);
-  if (!failed)
   {
-    MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs);
-    VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in);
+    SaddleParts parts(r, z, self->_mix_u_in, self->_mix_u_out, self->_mix_q_in,
+                      self->_mix_q_out);
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    solve(self->_q_ksp, self->_mix_q_in, self->_mix_q_out);
+    if (!failed)
+    {
+      MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs);
+      VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in);
+    }
+    solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
+    PetscPopErrorHandler();
   }
-  solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
-  PetscPopErrorHandler();
-  for (Vec v : {self->_mix_u_in, self->_mix_q_in, self->_mix_u_out, self->_mix_q_out})
-    VecResetArray(v);
-  VecRestoreArray(z, &zz);
-  VecRestoreArrayRead(r, &rr);
   if (failed)
   {
     PCSetFailedReason(pc, PC_SUBPC_ERROR);
