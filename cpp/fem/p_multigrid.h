@@ -13,10 +13,12 @@ namespace muscle
 /// hexahedra, P2 on tetrahedra): the degree-1 space of the same mesh, the
 /// prolongation P that interpolates its functions into V, and the Galerkin
 /// coarse matrix P^T A P carrying the degree-1 space's rigid-body modes, for
-/// GAMG.  Why: algebraic multigrid coarsens a degree-2 elasticity matrix badly
-/// (its Krylov count grows with the mesh, BENCHMARKS.md "Preconditioners
-/// against kappa"); on the degree-1 matrix it does what it does for Q1, and the
-/// step from degree 2 to 1 is geometric, so a smoother closes it at any h.
+/// GAMG.  Tried because algebraic multigrid coarsens a degree-2 matrix worse
+/// than a degree-1 one, and the step from degree 2 to 1 is geometric.  On
+/// Taylor-Hood's displacement block it saves a fifth of the Krylov iterations
+/// but grows with the mesh as GAMG does: that block has no bulk stiffness, on
+/// Q1 as on Q2, and that is what GAMG handles poorly (BENCHMARKS.md,
+/// "Preconditioners against kappa").
 class DegreeOneCoarsening
 {
 public:
