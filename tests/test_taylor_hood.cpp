@@ -4,13 +4,16 @@
 // every paper model (WKM's stress holds omega_a, GIANT's omega_a comes from its
 // quadrature-point kernel, both read the fibre stretch at F_bar).  And p-multigrid's
 // prolongation: a trilinear field is a degree-1 function, so interpolating its
-// degree-1 values into the degree-2 space must give its degree-2 values.
+// degree-1 values into the degree-2 space must give its degree-2 values.  And the
+// augmented-Lagrangian blocks against the same algebra done densely (Eigen).
 #include "support/finite_differences.h"
 
+#include <fem/augmented_lagrangian.h>
 #include <fem/muscle_problem.h>
 #include <fem/p_multigrid.h>
 #include <material/parameters.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -232,4 +235,115 @@ TEST(DegreeOneCoarsening, ProlongsDegreeOneFieldsExactly)
   MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
   EXPECT_GT(largest, 1.0);
   EXPECT_LT(worst, 1e-13 * largest);
+}
+
+namespace
+{
+Mat sparse_copy(const Eigen::MatrixXd& D)
+{
+  Mat M;
+  MatCreateSeqAIJ(PETSC_COMM_SELF, D.rows(), D.cols(), D.cols(), nullptr, &M);
+  for (int i = 0; i < D.rows(); ++i)
+    for (int j = 0; j < D.cols(); ++j)
+      if (D(i, j) != 0)
+        MatSetValue(M, i, j, D(i, j), INSERT_VALUES);
+  MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(M, MAT_FINAL_ASSEMBLY);
+  return M;
+}
+
+Eigen::MatrixXd dense_copy(Mat M)
+{
+  PetscInt m, n;
+  MatGetSize(M, &m, &n);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(m, n);
+  for (PetscInt i = 0; i < m; ++i)
+  {
+    PetscInt k;
+    const PetscInt* cols;
+    const PetscScalar* values;
+    MatGetRow(M, i, &k, &cols, &values);
+    for (PetscInt j = 0; j < k; ++j)
+      D(i, cols[j]) = values[j];
+    MatRestoreRow(M, i, &k, &cols, &values);
+  }
+  return D;
+}
+} // namespace
+
+TEST(AugmentedLagrangian, MatchesDenseAlgebra)
+{
+  // three degree-1 nodes, (theta, p) interleaved; four displacement unknowns
+  const int nodes = 3, nu = 4;
+  std::srand(7);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Random(nu, nu);
+  A = A + A.transpose();
+  const Eigen::MatrixXd A_qu = Eigen::MatrixXd::Random(2 * nodes, nu);
+  Eigen::MatrixXd M(nodes, nodes); // a mass matrix: symmetric, positive rows
+  M << 4, 1, 0.5, 1, 3, 1, 0.5, 1, 5;
+  Eigen::MatrixXd A_qq = Eigen::MatrixXd::Zero(2 * nodes, 2 * nodes);
+  for (int i = 0; i < nodes; ++i)
+    for (int j = 0; j < nodes; ++j)
+    {
+      A_qq(2 * i, 2 * j) = 1000 * M(i, j); // kappa M on (theta, theta)
+      A_qq(2 * i, 2 * j + 1) = A_qq(2 * i + 1, 2 * j) = -M(i, j);
+    }
+  const double gamma = 2.5;
+  // W: M lumped; B: A_qu's p rows
+  Eigen::MatrixXd B(nodes, nu);
+  Eigen::VectorXd w(nodes);
+  for (int i = 0; i < nodes; ++i)
+  {
+    B.row(i) = A_qu.row(2 * i + 1);
+    w(i) = M.row(i).sum();
+  }
+
+  AugmentedLagrangian al(gamma);
+  Mat pA = sparse_copy(A), pA_qu = sparse_copy(A_qu), pA_qq = sparse_copy(A_qq);
+  for (double scale : {1.0, -3.0}) // the first call and the update in place
+  {
+    MatScale(pA, scale);
+    const Eigen::MatrixXd A_now = scale == 1.0 ? A : -3.0 * A;
+    const Eigen::MatrixXd expected
+        = A_now + gamma * B.transpose() * w.cwiseInverse().asDiagonal() * B;
+    const Eigen::MatrixXd got = dense_copy(al.update(pA, pA_qu, pA_qq));
+    EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff())
+        << "scale " << scale;
+  }
+
+  // rhs_u += gamma B^T W^-1 (r_q - A_qq z_q)|_p
+  const Eigen::VectorXd r_q = Eigen::VectorXd::Random(2 * nodes);
+  const Eigen::VectorXd z_q = Eigen::VectorXd::Random(2 * nodes);
+  const Eigen::VectorXd rhs = Eigen::VectorXd::Random(nu);
+  const Eigen::VectorXd residual = r_q - A_qq * z_q;
+  Eigen::VectorXd p_part(nodes);
+  for (int i = 0; i < nodes; ++i)
+    p_part(i) = residual(2 * i + 1) / w(i);
+  const Eigen::VectorXd expected = rhs + gamma * B.transpose() * p_part;
+  Vec v_rhs, v_r, v_z;
+  VecCreateSeq(PETSC_COMM_SELF, nu, &v_rhs);
+  VecCreateSeq(PETSC_COMM_SELF, 2 * nodes, &v_r);
+  VecCreateSeq(PETSC_COMM_SELF, 2 * nodes, &v_z);
+  for (int i = 0; i < nu; ++i)
+    VecSetValue(v_rhs, i, rhs(i), INSERT_VALUES);
+  for (int i = 0; i < 2 * nodes; ++i)
+  {
+    VecSetValue(v_r, i, r_q(i), INSERT_VALUES);
+    VecSetValue(v_z, i, z_q(i), INSERT_VALUES);
+  }
+  for (Vec v : {v_rhs, v_r, v_z})
+  {
+    VecAssemblyBegin(v);
+    VecAssemblyEnd(v);
+  }
+  al.add_constraint_rows(v_rhs, v_r, v_z, pA_qu, pA_qq);
+  const PetscScalar* got;
+  VecGetArrayRead(v_rhs, &got);
+  for (int i = 0; i < nu; ++i)
+    EXPECT_NEAR(got[i], expected(i), 1e-12 * expected.cwiseAbs().maxCoeff()) << i;
+  VecRestoreArrayRead(v_rhs, &got);
+  for (Vec* v : {&v_rhs, &v_r, &v_z})
+    VecDestroy(v);
+  for (Mat* m : {&pA, &pA_qu, &pA_qq})
+    MatDestroy(m);
 }

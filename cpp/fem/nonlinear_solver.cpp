@@ -1,6 +1,7 @@
 #include "nonlinear_solver.h"
 
 #include "../common/errors.h"
+#include "augmented_lagrangian.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
 #include "p_multigrid.h"

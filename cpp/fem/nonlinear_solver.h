@@ -12,6 +12,7 @@
 
 namespace muscle
 {
+class AugmentedLagrangian;
 class DegreeOneCoarsening;
 class DisplacementConstraint;
 class FbarCellUnknowns;
@@ -250,14 +251,17 @@ private:
   /// _schur_pre from A_qq: the q block's Schur complement approximated
   void update_schur_preconditioner();
   Mat _schur_pre = nullptr;
-  /// gmres-schur with -fieldsplit_u_pc_type mg: the field split's upper block
-  /// factorisation applied here, p-multigrid (p_multigrid.h) on u
-  void configure_mixed_pmg(PC pc);
-  static PetscErrorCode mixed_pmg_apply(PC pc, Vec r, Vec z);
-  /// the coarse level's matrix from the current A, handed to its solver
-  void update_mixed_pmg();
+  /// gmres-schur with -fieldsplit_u_pc_type mg or -al_gamma: the field split's
+  /// upper block factorisation applied here, with p-multigrid (p_multigrid.h)
+  /// on u or the augmented-Lagrangian displacement block
+  void configure_mixed_shell(PC pc);
+  static PetscErrorCode mixed_shell_apply(PC pc, Vec r, Vec z);
+  /// the displacement block's operator (and coarse level) from the current A
+  void update_mixed_shell();
+  /// the augmented-Lagrangian form (-al_gamma), or null
+  std::unique_ptr<AugmentedLagrangian> _augmented;
   std::unique_ptr<DegreeOneCoarsening> _coarsening;
-  KSP _u_ksp = nullptr; ///< p-multigrid on A (-fieldsplit_u_ options)
+  KSP _u_ksp = nullptr; ///< the displacement block's solver (-fieldsplit_u_ options)
   KSP _q_ksp = nullptr; ///< the Schur approximation factored (-fieldsplit_q_ options)
   Vec _mix_u_in = nullptr, _mix_u_out = nullptr; ///< u parts of [u | q] (no own array)
   Vec _mix_q_in = nullptr, _mix_q_out = nullptr; ///< q parts (no own array)

@@ -9,16 +9,19 @@
 #include "../common/errors.h"
 #include "../common/petsc_options.h"
 #include "../material/material_point.h"
+#include "augmented_lagrangian.h"
 #include "constraint.h"
 #include "p_multigrid.h"
 #include "rigid_body_modes.h"
 #include "saddle_parts.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <dolfinx/fem/assembler.h>
 #include <dolfinx/fem/petsc.h>
 #include <dolfinx/la/petsc.h>
 #include <limits>
+#include <sstream>
 
 using namespace dolfinx;
 
@@ -198,8 +201,8 @@ void NonlinearSolver::assemble_mixed_jacobian()
   MatNorm(_J_mixed, NORM_INFINITY, &_mixed_norm);
   if (_schur_pre)
     update_schur_preconditioner();
-  if (_coarsening)
-    update_mixed_pmg();
+  if (_u_ksp)
+    update_mixed_shell();
 }
 
 double NonlinearSolver::mixed_floor(SNES snes) const
@@ -251,13 +254,53 @@ double shear_modulus_at_rest(const ParameterSet& parameters, const std::string& 
                      + ": use linear: lu");
   return mu;
 }
+
+/// x as a person writes it (6 significant digits, no trailing zeros)
+std::string shortest(double x)
+{
+  std::ostringstream out;
+  out << x;
+  return out.str();
+}
+
+/// The defaults of the displacement block's AMG under -fieldsplit_u_ (field split
+/// and shell alike); `constrained`: u carries no block size of 3
+void set_displacement_amg_defaults(bool constrained)
+{
+  // BoomerAMG on the displacement block (-fieldsplit_u_pc_type hypre): its scalar
+  // defaults ignore that u has three components, and its plain nodal coarsening
+  // fills the coarse operators in (2.7 GB at n = 1).  These settings cut GAMG's
+  // Krylov count on the fusiform muscle by a third (n = 1) to a half (n = 2), but a
+  // V-cycle costs more (BENCHMARKS.md, "Preconditioners against kappa"), so GAMG
+  // stays the default.
+  const std::string hypre_type = string_option("-fieldsplit_u_pc_hypre_type");
+  if (string_option("-fieldsplit_u_pc_type") == "hypre"
+      and (hypre_type.empty() or hypre_type == "boomeramg"))
+  {
+    set_unless_given({{"-fieldsplit_u_pc_hypre_boomeramg_coarsen_type", "HMIS"},
+                      {"-fieldsplit_u_pc_hypre_boomeramg_interp_type", "ext+i"},
+                      {"-fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.5"},
+                      {"-fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
+                      {"-fieldsplit_u_pc_hypre_boomeramg_P_max", "4"}});
+    // nodes need the block size of 3, which a constrained u does not carry
+    if (!constrained)
+      set_unless_given({{"-fieldsplit_u_pc_hypre_boomeramg_nodal_coarsen", "6"},
+                        {"-fieldsplit_u_pc_hypre_boomeramg_vec_interp_variant", "2"}});
+  }
+}
 } // namespace
 
 void NonlinearSolver::update_schur_preconditioner()
 {
   // S ~ A_qq - A_qu A^-1 A_uq with A_uq A^-1 A_qu ~ M / mu on p (Taylor-Hood
-  // Stokes: the pressure mass matrix over the shear modulus): A_qq's (theta, p)
-  // block is -M exactly, so the pp block gains its rows over -mu
+  // Stokes: the pressure mass matrix over the shear modulus).  A_qq's (theta, p)
+  // block is -M exactly.  With the augmented Lagrangian, B A_gamma^-1 B^T ~
+  // M / (mu + gamma), and the displacement rows' share gamma B^T W^-1 (-M) of
+  // the theta columns (W ~ M) takes gamma / (mu + gamma) of -M out of the
+  // (p, theta) block: p rows (p, theta) -M mu / (mu + gamma), (p, p)
+  // -M / (mu + gamma); gamma = 0 leaves A_qq's (p, theta) block as it is.
+  const double mu = _shear_modulus;
+  const double gamma = _augmented ? _augmented->gamma() : 0.0;
   MatCopy(_th_blocks[2], _schur_pre, SAME_NONZERO_PATTERN);
   PetscInt start, end;
   MatGetOwnershipRange(_th_blocks[2], &start, &end);
@@ -266,19 +309,20 @@ void NonlinearSolver::update_schur_preconditioner()
     PetscInt n;
     const PetscInt* cols;
     const PetscScalar* values;
-    MatGetRow(_th_blocks[2], row, &n, &cols, &values);
+    MatGetRow(_th_blocks[2], row, &n, &cols, &values); // (theta, p): -M, symmetric
     std::vector<PetscInt> p_cols;
     std::vector<PetscScalar> p_values;
     for (PetscInt k = 0; k < n; ++k)
       if (cols[k] % 2 == 1)
       {
-        p_cols.push_back(cols[k]);
-        p_values.push_back(values[k] / _shear_modulus);
+        p_cols.insert(p_cols.end(), {cols[k] - 1, cols[k]});
+        p_values.insert(p_values.end(),
+                        {values[k] * mu / (mu + gamma), values[k] / (mu + gamma)});
       }
     MatRestoreRow(_th_blocks[2], row, &n, &cols, &values);
     const PetscInt p_row = row + 1;
     MatSetValues(_schur_pre, 1, &p_row, p_cols.size(), p_cols.data(), p_values.data(),
-                 ADD_VALUES);
+                 INSERT_VALUES);
   }
   MatAssemblyBegin(_schur_pre, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(_schur_pre, MAT_FINAL_ASSEMBLY);
@@ -298,10 +342,26 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   // stable, so the count does not grow with kappa.
   _shear_modulus = shear_modulus_at_rest(_problem.parameters(), _problem.kernel_name());
   MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
-  update_schur_preconditioner();
-  if (string_option("-fieldsplit_u_pc_type") == "mg")
+  PetscBool al_given = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, "-al_gamma", &al_given);
+  double gamma = 0;
+  if (al_given)
   {
-    configure_mixed_pmg(pc);
+    const std::string text = string_option("-al_gamma");
+    char* end = nullptr;
+    gamma = std::strtod(text.c_str(), &end);
+    if (text.empty() or *end != '\0' or !(gamma > 0) or !std::isfinite(gamma))
+      throw InputError("-al_gamma '" + text
+                       + "': the augmented Lagrangian's penalty over the law's shear "
+                         "modulus at rest must be a number > 0 (1 is a good start); leave "
+                         "the option out for the plain Schur split");
+  }
+  if (al_given)
+    _augmented = std::make_unique<AugmentedLagrangian>(gamma * _shear_modulus);
+  update_schur_preconditioner();
+  if (al_given or string_option("-fieldsplit_u_pc_type") == "mg")
+  {
+    configure_mixed_shell(pc);
     return;
   }
   PetscInt n, start, end;
@@ -332,41 +392,20 @@ void NonlinearSolver::configure_mixed_split(PC pc)
                     {"-fieldsplit_q_ksp_type", "preonly"},
                     {"-fieldsplit_q_pc_type", "lu"},
                     {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"}});
-  // BoomerAMG on the displacement block (-fieldsplit_u_pc_type hypre): its scalar
-  // defaults ignore that u has three components, and its plain nodal coarsening
-  // fills the coarse operators in (2.7 GB at n = 1).  These settings cut GAMG's
-  // Krylov count on the fusiform muscle by a third (n = 1) to a half (n = 2), but a
-  // V-cycle costs more (BENCHMARKS.md, "Preconditioners against kappa"), so GAMG
-  // stays the default.
-  const std::string hypre_type = string_option("-fieldsplit_u_pc_hypre_type");
-  if (string_option("-fieldsplit_u_pc_type") == "hypre"
-      and (hypre_type.empty() or hypre_type == "boomeramg"))
-  {
-    set_unless_given({{"-fieldsplit_u_pc_hypre_boomeramg_coarsen_type", "HMIS"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_interp_type", "ext+i"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.5"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_P_max", "4"}});
-    // nodes need the block size of 3, which a constrained u does not carry
-    if (!_constraint)
-      set_unless_given({{"-fieldsplit_u_pc_hypre_boomeramg_nodal_coarsen", "6"},
-                        {"-fieldsplit_u_pc_hypre_boomeramg_vec_interp_variant", "2"}});
-  }
+  set_displacement_amg_defaults(_constraint != nullptr);
 }
 
-void NonlinearSolver::configure_mixed_pmg(PC pc)
+void NonlinearSolver::configure_mixed_shell(PC pc)
 {
-  if (_constraint)
+  const bool pmg = string_option("-fieldsplit_u_pc_type") == "mg";
+  // both act on the whole displacement (the prolongation, B^T W^-1 B)
+  if (_constraint and pmg)
     throw InputError("-fieldsplit_u_pc_type mg (p-multigrid on the displacement block): "
                      "not with a linear constraint (uniform_axial, tie); use the default "
                      "-fieldsplit_u_pc_type gamg");
-  std::vector<std::int32_t> dirichlet;
-  for (const auto& bc : _bcs)
-  {
-    auto [dofs, owned] = bc->dof_indices();
-    dirichlet.insert(dirichlet.end(), dofs.begin(), dofs.end());
-  }
-  _coarsening = std::make_unique<DegreeOneCoarsening>(_problem.V(), dirichlet);
+  if (_constraint)
+    throw InputError("-al_gamma (the augmented-Lagrangian split): not with a linear "
+                     "constraint (uniform_axial, tie); leave -al_gamma out");
   MPI_Comm comm = _problem.mesh()->comm();
   PetscInt n;
   VecGetLocalSize(_x, &n);
@@ -382,7 +421,9 @@ void NonlinearSolver::configure_mixed_pmg(PC pc)
   // n = 1, but 44 s against 76 s (BENCHMARKS.md, "Preconditioners against kappa")
   set_unless_given({{"-fieldsplit_q_pc_type", "lu"},
                     {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"},
+                    {"-fieldsplit_u_pc_type", "gamg"},
                     {"-fieldsplit_u_mg_levels_pc_type", "jacobi"}});
+  set_displacement_amg_defaults(false);
   KSPCreate(comm, &_q_ksp);
   KSPSetOptionsPrefix(_q_ksp, "fieldsplit_q_");
   KSPSetType(_q_ksp, KSPPREONLY);
@@ -392,26 +433,48 @@ void NonlinearSolver::configure_mixed_pmg(PC pc)
   KSPCreate(comm, &_u_ksp);
   KSPSetOptionsPrefix(_u_ksp, "fieldsplit_u_");
   KSPSetType(_u_ksp, KSPPREONLY);
-  KSPSetOperators(_u_ksp, _A, _A);
-  PC mg;
-  KSPGetPC(_u_ksp, &mg);
-  PCSetType(mg, PCMG);
-  PCMGSetLevels(mg, 2, nullptr);
-  PCMGSetInterpolation(mg, 1, _coarsening->prolongation());
-  PCMGSetGalerkin(mg, PC_MG_GALERKIN_NONE); // P^T A P formed here, with its modes
-  KSP coarse;
-  PCMGGetCoarseSolve(mg, &coarse);
-  KSPSetType(coarse, KSPPREONLY);
-  PC amg;
-  KSPGetPC(coarse, &amg);
-  PCSetType(amg, PCGAMG);
-  update_mixed_pmg();
+  PC u_pc;
+  KSPGetPC(_u_ksp, &u_pc);
+  if (pmg)
+  {
+    std::vector<std::int32_t> dirichlet;
+    for (const auto& bc : _bcs)
+    {
+      auto [dofs, owned] = bc->dof_indices();
+      dirichlet.insert(dirichlet.end(), dofs.begin(), dofs.end());
+    }
+    _coarsening = std::make_unique<DegreeOneCoarsening>(_problem.V(), dirichlet);
+    PCSetType(u_pc, PCMG);
+    PCMGSetLevels(u_pc, 2, nullptr);
+    PCMGSetInterpolation(u_pc, 1, _coarsening->prolongation());
+    PCMGSetGalerkin(u_pc, PC_MG_GALERKIN_NONE); // P^T A P formed here, with its modes
+    KSP coarse;
+    PCMGGetCoarseSolve(u_pc, &coarse);
+    KSPSetType(coarse, KSPPREONLY);
+    PC amg;
+    KSPGetPC(coarse, &amg);
+    PCSetType(amg, PCGAMG);
+  }
+  update_mixed_shell();
+  if (!pmg)
+  {
+    Mat op;
+    KSPGetOperators(_u_ksp, &op, nullptr);
+    _near_null_space = rigid_body_modes(*_problem.V(), nullptr,
+                                        _options.near_null_space == "bodies");
+    MatSetNearNullSpace(op, _near_null_space);
+  }
   KSPSetFromOptions(_u_ksp);
 
   PCSetType(pc, PCSHELL);
   PCShellSetContext(pc, this);
-  PCShellSetApply(pc, mixed_pmg_apply);
-  PCShellSetName(pc, "Taylor-Hood Schur factorisation, p-multigrid on u");
+  PCShellSetApply(pc, mixed_shell_apply);
+  std::string name = "Taylor-Hood Schur factorisation";
+  if (_augmented)
+    name += ", augmented Lagrangian (gamma "
+            + shortest(_augmented->gamma()) + " kPa)";
+  name += pmg ? ", p-multigrid on u" : ", " + string_option("-fieldsplit_u_pc_type") + " on u";
+  PCShellSetName(pc, name.c_str());
   PCShellSetView(pc, [](PC shell, PetscViewer viewer) -> PetscErrorCode
   {
     NonlinearSolver* self;
@@ -422,24 +485,30 @@ void NonlinearSolver::configure_mixed_pmg(PC pc)
   });
 }
 
-void NonlinearSolver::update_mixed_pmg()
+void NonlinearSolver::update_mixed_shell()
 {
-  Mat coarse_matrix = _coarsening->coarse_matrix(_A);
-  PC mg;
-  KSPGetPC(_u_ksp, &mg);
-  KSP coarse;
-  PCMGGetCoarseSolve(mg, &coarse);
-  KSPSetOperators(coarse, coarse_matrix, coarse_matrix);
+  // A and A_gamma change in place, so this sets the same operator each time
+  Mat op = _augmented ? _augmented->update(_A, _th_blocks[1], _th_blocks[2]) : _A;
+  KSPSetOperators(_u_ksp, op, op);
+  PC u_pc;
+  KSPGetPC(_u_ksp, &u_pc);
   // PCMG and GAMG keep a failure until it is cleared: a new Jacobian starts clean
+  PCSetFailedReason(u_pc, PC_NOERROR);
+  if (!_coarsening)
+    return;
+  Mat coarse_matrix = _coarsening->coarse_matrix(op);
+  KSP coarse;
+  PCMGGetCoarseSolve(u_pc, &coarse);
+  KSPSetOperators(coarse, coarse_matrix, coarse_matrix);
   PC amg;
   KSPGetPC(coarse, &amg);
-  for (PC p : {mg, amg})
-    PCSetFailedReason(p, PC_NOERROR);
+  PCSetFailedReason(amg, PC_NOERROR);
 }
 
-PetscErrorCode NonlinearSolver::mixed_pmg_apply(PC pc, Vec r, Vec z)
+PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
 {
-  // upper factorisation: z_q = S^-1 r_q, z_u = A^-1 (r_u - A_uq z_q)
+  // upper factorisation: z_q = S^-1 r_q, z_u = A^-1 (r_u - A_uq z_q); with the
+  // augmented Lagrangian A_gamma and its share of the constraint rows in r_u
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
   // as condensed_solve: a failed inner solve (or a PETSc error in it) fails this
@@ -464,6 +533,10 @@ PetscErrorCode NonlinearSolver::mixed_pmg_apply(PC pc, Vec r, Vec z)
     {
       MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs);
       VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in);
+      if (self->_augmented)
+        self->_augmented->add_constraint_rows(self->_mix_u_rhs, self->_mix_q_in,
+                                              self->_mix_q_out, self->_th_blocks[1],
+                                              self->_th_blocks[2]);
     }
     solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
     PetscPopErrorHandler();

@@ -12,6 +12,7 @@
 #include "series_quantities.h"
 
 #include <algorithm>
+#include <cctype>
 #include <dolfinx/la/Vector.h>
 #include <filesystem>
 #include <petscsys.h>
@@ -21,14 +22,22 @@ namespace muscle
 
 namespace
 {
+/// An option's name starts with '-'; a negative number ("-1", "-.5") is a value
+/// (PETSc's own rule for its command line)
+bool is_option_name(const std::string& word)
+{
+  return word.size() > 1 and word[0] == '-'
+         and !(std::isdigit(static_cast<unsigned char>(word[1])) or word[1] == '.');
+}
+
 /// The scene's PETSc options (solver.petsc), each unless the command line gave it.
 void set_petsc_options(const std::vector<std::string>& words)
 {
   for (std::size_t i = 0; i < words.size(); ++i)
   {
-    if (words[i][0] != '-')
+    if (!is_option_name(words[i]))
       continue;
-    const bool has_value = i + 1 < words.size() and words[i + 1][0] != '-';
+    const bool has_value = i + 1 < words.size() and !is_option_name(words[i + 1]);
     set_unless_given(words[i].c_str(), has_value ? words[i + 1].c_str() : nullptr);
   }
 }
