@@ -273,58 +273,104 @@ Eigen::MatrixXd dense_copy(Mat M)
 
 TEST(AugmentedLagrangian, MatchesDenseAlgebra)
 {
-  // three degree-1 nodes, (theta, p) interleaved; four displacement unknowns
-  const int nodes = 3, nu = 4;
+  // two cells on a line of three nodes, each node one displacement block (3
+  // dofs) and one (theta, p) pair; the cells share the middle node
+  const int nodes = 3;
+  const std::array<std::array<std::int32_t, 2>, 2> cells = {{{0, 1}, {1, 2}}};
   std::srand(7);
-  Eigen::MatrixXd A = Eigen::MatrixXd::Random(nu, nu);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Random(3 * nodes, 3 * nodes);
   A = A + A.transpose();
-  const Eigen::MatrixXd A_qu = Eigen::MatrixXd::Random(2 * nodes, nu);
-  Eigen::MatrixXd M(nodes, nodes); // a mass matrix: symmetric, positive rows
-  M << 4, 1, 0.5, 1, 3, 1, 0.5, 1, 5;
+  Eigen::MatrixXd A_qu = Eigen::MatrixXd::Zero(2 * nodes, 3 * nodes);
   Eigen::MatrixXd A_qq = Eigen::MatrixXd::Zero(2 * nodes, 2 * nodes);
-  for (int i = 0; i < nodes; ++i)
-    for (int j = 0; j < nodes; ++j)
-    {
-      A_qq(2 * i, 2 * j) = 1000 * M(i, j); // kappa M on (theta, theta)
-      A_qq(2 * i, 2 * j + 1) = A_qq(2 * i + 1, 2 * j) = -M(i, j);
-    }
-  const double gamma = 2.5;
-  // W: M lumped; B: A_qu's p rows
-  Eigen::MatrixXd B(nodes, nu);
-  Eigen::VectorXd w(nodes);
-  for (int i = 0; i < nodes; ++i)
+  std::array<Eigen::MatrixXd, 2> qu_e, qq_e;
+  for (int c = 0; c < 2; ++c)
   {
-    B.row(i) = A_qu.row(2 * i + 1);
-    w(i) = M.row(i).sum();
+    Eigen::MatrixXd M(2, 2); // a cell mass matrix: symmetric, positive rows
+    M << 2 + c, 1, 1, 3 - c;
+    qq_e[c] = Eigen::MatrixXd::Zero(4, 4);
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j)
+      {
+        qq_e[c](2 * i, 2 * j) = 1000 * M(i, j); // kappa M on (theta, theta)
+        qq_e[c](2 * i, 2 * j + 1) = qq_e[c](2 * i + 1, 2 * j) = -M(i, j);
+      }
+    qu_e[c] = Eigen::MatrixXd::Random(4, 6);
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j)
+      {
+        A_qq.block<2, 2>(2 * cells[c][i], 2 * cells[c][j]) += qq_e[c].block<2, 2>(2 * i, 2 * j);
+        A_qu.block<2, 3>(2 * cells[c][i], 3 * cells[c][j]) += qu_e[c].block<2, 3>(2 * i, 3 * j);
+      }
+  }
+  const double gamma = 2.5;
+  // expected: gamma sum_c B_c^T W_c^-1 B_c in the global numbering, W_c the
+  // cell's lumped mass; the right-hand side's W the global lumped mass
+  Eigen::MatrixXd cell_sum = Eigen::MatrixXd::Zero(3 * nodes, 3 * nodes);
+  for (int c = 0; c < 2; ++c)
+  {
+    Eigen::MatrixXd B = Eigen::MatrixXd::Zero(2, 3 * nodes);
+    Eigen::VectorXd w(2);
+    for (int i = 0; i < 2; ++i)
+    {
+      w(i) = -(qq_e[c](2 * i, 1) + qq_e[c](2 * i, 3));
+      for (int j = 0; j < 2; ++j)
+        B.block<1, 3>(i, 3 * cells[c][j]) = qu_e[c].block<1, 3>(2 * i + 1, 3 * j);
+    }
+    cell_sum += gamma * B.transpose() * w.cwiseInverse().asDiagonal() * B;
   }
 
   AugmentedLagrangian al(gamma);
   Mat pA = sparse_copy(A), pA_qu = sparse_copy(A_qu), pA_qq = sparse_copy(A_qq);
+  MatSetBlockSize(pA, 3);
+  std::vector<PetscInt> identity = {0, 1, 2};
+  ISLocalToGlobalMapping l2g;
+  ISLocalToGlobalMappingCreate(PETSC_COMM_SELF, 3, nodes, identity.data(), PETSC_COPY_VALUES,
+                               &l2g);
+  MatSetLocalToGlobalMapping(pA, l2g, l2g);
+  ISLocalToGlobalMappingDestroy(&l2g);
   for (double scale : {1.0, -3.0}) // the first call and the update in place
   {
     MatScale(pA, scale);
-    const Eigen::MatrixXd A_now = scale == 1.0 ? A : -3.0 * A;
-    const Eigen::MatrixXd expected
-        = A_now + gamma * B.transpose() * w.cwiseInverse().asDiagonal() * B;
-    const Eigen::MatrixXd got = dense_copy(al.update(pA, pA_qu, pA_qq));
+    al.begin(pA, pA_qq);
+    for (int c = 0; c < 2; ++c)
+    {
+      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> e = qq_e[c];
+      al.add_cell_mass(cells[c], std::span(e.data(), e.size()));
+    }
+    for (int c = 0; c < 2; ++c)
+    {
+      const Eigen::Matrix<double, 4, 6, Eigen::RowMajor> e = qu_e[c];
+      al.add_cell_coupling(cells[c], cells[c], std::span(e.data(), e.size()));
+    }
+    const Eigen::MatrixXd expected = (scale == 1.0 ? A : -3.0 * A) + cell_sum;
+    const Eigen::MatrixXd got = dense_copy(al.end(pA));
     EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff())
         << "scale " << scale;
   }
 
-  // rhs_u += gamma B^T W^-1 (r_q - A_qq z_q)|_p
+  // rhs_u += gamma B^T W^-1 (r_q - A_qq z_q)|_p with the assembled B and W
+  Eigen::MatrixXd B(nodes, 3 * nodes);
+  Eigen::VectorXd w(nodes);
+  for (int i = 0; i < nodes; ++i)
+  {
+    B.row(i) = A_qu.row(2 * i + 1);
+    w(i) = 0;
+    for (int j = 0; j < nodes; ++j)
+      w(i) -= A_qq(2 * i, 2 * j + 1);
+  }
   const Eigen::VectorXd r_q = Eigen::VectorXd::Random(2 * nodes);
   const Eigen::VectorXd z_q = Eigen::VectorXd::Random(2 * nodes);
-  const Eigen::VectorXd rhs = Eigen::VectorXd::Random(nu);
+  const Eigen::VectorXd rhs = Eigen::VectorXd::Random(3 * nodes);
   const Eigen::VectorXd residual = r_q - A_qq * z_q;
   Eigen::VectorXd p_part(nodes);
   for (int i = 0; i < nodes; ++i)
     p_part(i) = residual(2 * i + 1) / w(i);
   const Eigen::VectorXd expected = rhs + gamma * B.transpose() * p_part;
   Vec v_rhs, v_r, v_z;
-  VecCreateSeq(PETSC_COMM_SELF, nu, &v_rhs);
+  VecCreateSeq(PETSC_COMM_SELF, 3 * nodes, &v_rhs);
   VecCreateSeq(PETSC_COMM_SELF, 2 * nodes, &v_r);
   VecCreateSeq(PETSC_COMM_SELF, 2 * nodes, &v_z);
-  for (int i = 0; i < nu; ++i)
+  for (int i = 0; i < 3 * nodes; ++i)
     VecSetValue(v_rhs, i, rhs(i), INSERT_VALUES);
   for (int i = 0; i < 2 * nodes; ++i)
   {
@@ -339,7 +385,7 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
   al.add_constraint_rows(v_rhs, v_r, v_z, pA_qu, pA_qq);
   const PetscScalar* got;
   VecGetArrayRead(v_rhs, &got);
-  for (int i = 0; i < nu; ++i)
+  for (int i = 0; i < 3 * nodes; ++i)
     EXPECT_NEAR(got[i], expected(i), 1e-12 * expected.cwiseAbs().maxCoeff()) << i;
   VecRestoreArrayRead(v_rhs, &got);
   for (Vec* v : {&v_rhs, &v_r, &v_z})

@@ -1,5 +1,8 @@
 #include "augmented_lagrangian.h"
 
+#include <algorithm>
+#include <stdexcept>
+
 namespace muscle
 {
 
@@ -7,12 +10,11 @@ AugmentedLagrangian::~AugmentedLagrangian()
 {
   VecDestroy(&_w_inv);
   VecDestroy(&_work);
-  MatDestroy(&_scaled_coupling);
-  MatDestroy(&_grad_div);
+  MatDestroy(&_cell_sum);
   MatDestroy(&_A_gamma);
 }
 
-Mat AugmentedLagrangian::update(Mat A, Mat A_qu, Mat A_qq)
+void AugmentedLagrangian::begin(Mat A, Mat A_qq)
 {
   if (!_w_inv)
     MatCreateVecs(A_qq, &_w_inv, &_work);
@@ -35,42 +37,73 @@ Mat AugmentedLagrangian::update(Mat A, Mat A_qu, Mat A_qq)
   VecAssemblyBegin(_w_inv);
   VecAssemblyEnd(_w_inv);
 
-  // A_qu's theta rows drop out through the zeros of W^-1, so B^T W^-1 B is
-  // A_qu^T diag(w_inv) A_qu
-  if (!_scaled_coupling)
-    MatDuplicate(A_qu, MAT_COPY_VALUES, &_scaled_coupling);
-  else
-    MatCopy(A_qu, _scaled_coupling, SAME_NONZERO_PATTERN);
-  MatDiagonalScale(_scaled_coupling, _w_inv, nullptr);
-  MatTransposeMatMult(A_qu, _scaled_coupling,
-                      _grad_div ? MAT_REUSE_MATRIX : MAT_INITIAL_MATRIX, PETSC_DEFAULT,
-                      &_grad_div);
-
   PetscObjectState pattern;
   MatGetNonzeroState(A, &pattern);
-  if (!_A_gamma or pattern != _pattern)
+  if (pattern != _pattern)
   {
-    // a new pattern (contact) goes into the same matrix, so that its solvers,
-    // near-null space and Galerkin products see it change
-    Mat fresh;
-    MatDuplicate(A, MAT_COPY_VALUES, &fresh);
-    MatAXPY(fresh, _gamma, _grad_div, DIFFERENT_NONZERO_PATTERN);
-    if (!_A_gamma)
-      _A_gamma = fresh;
-    else
-    {
-      MatSetOption(_A_gamma, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
-      MatCopy(fresh, _A_gamma, DIFFERENT_NONZERO_PATTERN);
-      MatDestroy(&fresh);
-    }
-    _pattern = pattern;
+    MatDestroy(&_cell_sum);
+    MatDuplicate(A, MAT_DO_NOT_COPY_VALUES, &_cell_sum);
+  }
+  MatZeroEntries(_cell_sum);
+  _cell_w.clear();
+  _cell_q.clear();
+  _next = 0;
+}
+
+void AugmentedLagrangian::add_cell_mass(std::span<const std::int32_t> q_dofs,
+                                        std::span<const double> A_qq_e)
+{
+  const std::size_t n = q_dofs.size(), cols = 2 * n;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    double w = 0;
+    for (std::size_t j = 0; j < n; ++j)
+      w -= A_qq_e[2 * i * cols + 2 * j + 1]; // (theta_i, p_j): -M_ij
+    _cell_w.push_back(w);
+  }
+  _cell_q.insert(_cell_q.end(), q_dofs.begin(), q_dofs.end());
+}
+
+void AugmentedLagrangian::add_cell_coupling(std::span<const std::int32_t> q_dofs,
+                                            std::span<const std::int32_t> u_dofs,
+                                            std::span<const double> A_qu_e)
+{
+  const std::size_t n = q_dofs.size(), m = 3 * u_dofs.size();
+  if (_next + n > _cell_q.size()
+      or !std::equal(q_dofs.begin(), q_dofs.end(), _cell_q.begin() + _next))
+    throw std::logic_error("AugmentedLagrangian: A_qu's cells do not follow A_qq's");
+  _K.assign(m * m, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const double* b = &A_qu_e[(2 * i + 1) * m]; // p_i's row (Dirichlet columns zero)
+    const double s = _gamma / _cell_w[_next + i];
+    for (std::size_t k = 0; k < m; ++k)
+      for (std::size_t l = 0; l < m; ++l)
+        _K[k * m + l] += s * b[k] * b[l];
+  }
+  _next += n;
+  _u_dofs.assign(u_dofs.begin(), u_dofs.end());
+  MatSetValuesBlockedLocal(_cell_sum, _u_dofs.size(), _u_dofs.data(), _u_dofs.size(),
+                           _u_dofs.data(), _K.data(), ADD_VALUES);
+}
+
+Mat AugmentedLagrangian::end(Mat A)
+{
+  MatAssemblyBegin(_cell_sum, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_cell_sum, MAT_FINAL_ASSEMBLY);
+  PetscObjectState pattern;
+  MatGetNonzeroState(A, &pattern);
+  if (!_A_gamma)
+    MatDuplicate(A, MAT_COPY_VALUES, &_A_gamma);
+  else if (pattern != _pattern)
+  {
+    MatSetOption(_A_gamma, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+    MatCopy(A, _A_gamma, DIFFERENT_NONZERO_PATTERN);
   }
   else
-  {
-    MatZeroEntries(_A_gamma);
-    MatAXPY(_A_gamma, 1.0, A, SUBSET_NONZERO_PATTERN);
-    MatAXPY(_A_gamma, _gamma, _grad_div, SUBSET_NONZERO_PATTERN);
-  }
+    MatCopy(A, _A_gamma, SAME_NONZERO_PATTERN);
+  _pattern = pattern;
+  MatAXPY(_A_gamma, 1.0, _cell_sum, SUBSET_NONZERO_PATTERN);
   return _A_gamma;
 }
 

@@ -1,22 +1,26 @@
 #pragma once
 
+#include <cstdint>
 #include <petscmat.h>
+#include <span>
+#include <vector>
 
 namespace muscle
 {
 
 /// The augmented-Lagrangian form of the Taylor-Hood system for its block
-/// preconditioner: gamma B^T W^-1 times the constraint rows (p: the L2
-/// projection of J onto theta) added to the displacement rows, so that the
-/// displacement block A_gamma = A + gamma B^T W^-1 B regains the bulk stiffness
-/// that holding theta takes out of A.  B: the p rows of dR_q/du; W: the degree-1
-/// mass matrix lumped (the p column sums of A_qq's theta rows, which are -M), so
-/// B^T W^-1 B stays sparse.  The system solved is unchanged (GMRES sees the
-/// Jacobian); only the preconditioner's blocks are. Under activation A is
-/// indefinite (negative eigenvalues, dilational fields the fibre stress
-/// lowers the energy of): gamma lifts them, and the Schur complement of q
-/// becomes close to its approximation for any mesh when the displacement
-/// block is solved well (BENCHMARKS.md, "Preconditioners against kappa").
+/// preconditioner.  Under activation the displacement block A (theta held) is
+/// indefinite: with theta held a dilation costs no bulk energy, and the fibre
+/// stress makes some dilational fields lower the energy.  Adding gamma B^T W^-1
+/// times the constraint rows (p: the L2 projection of J onto theta) to the
+/// displacement rows gives the block A_gamma = A + gamma B^T W^-1 B back a bulk
+/// stiffness; B: the p rows of dR_q/du, W: the degree-1 mass matrix lumped.  The
+/// system solved is unchanged (GMRES sees the Jacobian); only the
+/// preconditioner's blocks are.  A_gamma is built cell by cell, sum_c B_c^T
+/// W_c^-1 B_c, so it keeps A's sparsity: the global B^T W^-1 B couples every
+/// displacement dof with those of the 4 x 4 x 4 cells around it, six times A's
+/// nonzeros (BENCHMARKS.md, "Preconditioners against kappa").  The constraint
+/// rows' share in the right-hand side uses the global W.
 class AugmentedLagrangian
 {
 public:
@@ -27,23 +31,36 @@ public:
   AugmentedLagrangian& operator=(const AugmentedLagrangian&) = delete;
 
   double gamma() const { return _gamma; }
-  /// A_gamma from the current blocks, in place after the first call (a new
-  /// nonzero pattern of A, from contact, makes it anew).  Owned here.
-  /// A_qu, A_qq: dR_q/du and dR_q/dq, rows (theta, p) interleaved per node.
-  Mat update(Mat A, Mat A_qu, Mat A_qq);
-  Mat matrix() const { return _A_gamma; }
+
+  /// Starts A_gamma for the current A and A_qq (rows (theta, p) interleaved per
+  /// degree-1 node; its (theta, p) block is -M, whose row sums are W).  Then
+  /// add_cell_mass for every cell of A_qq's assembly and add_cell_coupling for
+  /// every cell of A_qu's, in the same cell order, with blocked local dofs and
+  /// row-major element matrices as DOLFINx hands them on (q: block size 2, u: 3).
+  void begin(Mat A, Mat A_qq);
+  void add_cell_mass(std::span<const std::int32_t> q_dofs, std::span<const double> A_qq_e);
+  void add_cell_coupling(std::span<const std::int32_t> q_dofs,
+                         std::span<const std::int32_t> u_dofs, std::span<const double> A_qu_e);
+  /// A_gamma = A + gamma sum_c B_c^T W_c^-1 B_c: the same matrix object on every
+  /// call (a new pattern of A, from contact, goes into it).  Owned here.
+  Mat end(Mat A);
+
   /// rhs_u += gamma B^T W^-1 (r_q - A_qq z_q) on the p rows: the displacement
   /// rows' share of the constraint rows, for the upper block factorisation
   void add_constraint_rows(Vec rhs_u, Vec r_q, Vec z_q, Mat A_qu, Mat A_qq);
 
 private:
   double _gamma;
-  Vec _w_inv = nullptr;        ///< W^-1 on p rows, 0 on theta rows
-  Vec _work = nullptr;         ///< q-sized
-  Mat _scaled_coupling = nullptr; ///< W^-1 A_qu
-  Mat _grad_div = nullptr;     ///< B^T W^-1 B
+  Vec _w_inv = nullptr;          ///< W^-1 on p rows, 0 on theta rows
+  Vec _work = nullptr;           ///< q-sized
+  Mat _cell_sum = nullptr;       ///< gamma sum_c B_c^T W_c^-1 B_c, A's pattern
   Mat _A_gamma = nullptr;
-  PetscObjectState _pattern = -1; ///< A's nonzero state when _A_gamma was made
+  PetscObjectState _pattern = -1; ///< A's nonzero state when _cell_sum was made
+  std::vector<double> _cell_w;   ///< per cell, its p dofs' lumped mass
+  std::vector<std::int32_t> _cell_q; ///< per cell, its q dofs (to check the order)
+  std::size_t _next = 0;         ///< add_cell_coupling's place in _cell_w
+  std::vector<double> _K;        ///< one cell's gamma B_c^T W_c^-1 B_c
+  std::vector<PetscInt> _u_dofs;
 };
 
 } // namespace muscle

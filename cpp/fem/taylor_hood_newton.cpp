@@ -398,7 +398,8 @@ void NonlinearSolver::configure_mixed_split(PC pc)
 void NonlinearSolver::configure_mixed_shell(PC pc)
 {
   const bool pmg = string_option("-fieldsplit_u_pc_type") == "mg";
-  // both act on the whole displacement (the prolongation, B^T W^-1 B)
+  // both act on the whole displacement (the prolongation, B^T W^-1 B), not on
+  // the constraint's reduced unknowns
   if (_constraint and pmg)
     throw InputError("-fieldsplit_u_pc_type mg (p-multigrid on the displacement block): "
                      "not with a linear constraint (uniform_axial, tie); use the default "
@@ -488,7 +489,25 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
 void NonlinearSolver::update_mixed_shell()
 {
   // A and A_gamma change in place, so this sets the same operator each time
-  Mat op = _augmented ? _augmented->update(_A, _th_blocks[1], _th_blocks[2]) : _A;
+  Mat op = _A;
+  if (_augmented)
+  {
+    // the element matrices of A_qq and A_qu once more, handed to the cell sum
+    const MuscleProblem::TaylorHoodForms& f = _problem.th_forms();
+    AugmentedLagrangian& al = *_augmented;
+    al.begin(_A, _th_blocks[2]);
+    fem::assemble_matrix([&al](const std::span<const std::int32_t>& rows,
+                               const std::span<const std::int32_t>&,
+                               const std::span<const double>& values)
+                         { al.add_cell_mass(rows, values); return 0; },
+                         *f.jacobian_qq, _bcs);
+    fem::assemble_matrix([&al](const std::span<const std::int32_t>& rows,
+                               const std::span<const std::int32_t>& cols,
+                               const std::span<const double>& values)
+                         { al.add_cell_coupling(rows, cols, values); return 0; },
+                         *f.jacobian_qu, _bcs);
+    op = al.end(_A);
+  }
   KSPSetOperators(_u_ksp, op, op);
   PC u_pc;
   KSPGetPC(_u_ksp, &u_pc);
