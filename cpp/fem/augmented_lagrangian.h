@@ -9,9 +9,10 @@ namespace muscle
 {
 
 /// The augmented-Lagrangian form of the Taylor-Hood system for its block
-/// preconditioner.  Under activation the displacement block A (theta held) is
-/// indefinite: with theta held a dilation costs no bulk energy, and the fibre
-/// stress makes some dilational fields lower the energy.  Adding gamma B^T W^-1
+/// preconditioner.  Under activation the displacement block A (theta held) can
+/// be indefinite (at a step's first Newton iteration, measured): with theta held
+/// a dilation costs no bulk energy, and the fibre stress makes some dilational
+/// fields lower the energy.  Adding gamma B^T W^-1
 /// times the constraint rows (p: the L2 projection of J onto theta) to the
 /// displacement rows gives the block A_gamma = A + gamma B^T W^-1 B back a bulk
 /// stiffness; B: the p rows of dR_q/du, W: the degree-1 mass matrix lumped.  The
