@@ -280,6 +280,9 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
   std::srand(7);
   Eigen::MatrixXd A = Eigen::MatrixXd::Random(3 * nodes, 3 * nodes);
   A = A + A.transpose();
+  // a mesh's pattern: nodes 0 and 2 share no cell
+  A.block<3, 3>(0, 6).setZero();
+  A.block<3, 3>(6, 0).setZero();
   Eigen::MatrixXd A_qu = Eigen::MatrixXd::Zero(2 * nodes, 3 * nodes);
   Eigen::MatrixXd A_qq = Eigen::MatrixXd::Zero(2 * nodes, 2 * nodes);
   std::array<Eigen::MatrixXd, 2> qu_e, qq_e;
@@ -328,10 +331,29 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
                                &l2g);
   MatSetLocalToGlobalMapping(pA, l2g, l2g);
   ISLocalToGlobalMappingDestroy(&l2g);
-  for (double scale : {1.0, -3.0}) // the first call and the update in place
+  // the first call, the update in place, and a new nonzero in A (contact
+  // coupling nodes 0 and 2) between calls: A_gamma must take it and keep the
+  // near-null space set on it (GAMG without its rigid-body modes coarsens badly)
+  MatNullSpace modes;
+  MatNullSpaceCreate(PETSC_COMM_SELF, PETSC_TRUE, 0, nullptr, &modes);
+  Eigen::MatrixXd expected_A = A;
+  for (int call = 0; call < 3; ++call)
   {
-    MatScale(pA, scale);
-    al.begin(pA, pA_qq);
+    if (call == 1)
+    {
+      MatScale(pA, -3.0);
+      expected_A *= -3.0;
+    }
+    if (call == 2)
+    {
+      MatSetOption(pA, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+      MatSetValue(pA, 0, 7, 0.5, ADD_VALUES);
+      MatSetValue(pA, 7, 0, 0.5, ADD_VALUES);
+      MatAssemblyBegin(pA, MAT_FINAL_ASSEMBLY);
+      MatAssemblyEnd(pA, MAT_FINAL_ASSEMBLY);
+      expected_A(0, 7) = expected_A(7, 0) = 0.5;
+    }
+    al.begin(pA);
     for (int c = 0; c < 2; ++c)
     {
       const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> e = qq_e[c];
@@ -342,11 +364,32 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
       const Eigen::Matrix<double, 4, 6, Eigen::RowMajor> e = qu_e[c];
       al.add_cell_coupling(cells[c], cells[c], std::span(e.data(), e.size()));
     }
-    const Eigen::MatrixXd expected = (scale == 1.0 ? A : -3.0 * A) + cell_sum;
-    const Eigen::MatrixXd got = dense_copy(al.end(pA));
+    al.end(pA_qq);
+    const Eigen::MatrixXd expected = expected_A + cell_sum;
+    const Eigen::MatrixXd got = dense_copy(al.matrix());
     EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff())
-        << "scale " << scale;
+        << "call " << call;
+    if (call == 0)
+      MatSetNearNullSpace(al.matrix(), modes);
+    MatNullSpace kept = nullptr;
+    MatGetNearNullSpace(al.matrix(), &kept);
+    EXPECT_EQ(kept, modes) << "call " << call;
   }
+  MatNullSpaceDestroy(&modes);
+
+  // cells of A_qu's assembly that do not follow A_qq's are reported
+  al.begin(pA);
+  for (int c = 0; c < 2; ++c)
+  {
+    const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> e = qq_e[c];
+    al.add_cell_mass(cells[c], std::span(e.data(), e.size()));
+  }
+  for (int c : {1, 0})
+  {
+    const Eigen::Matrix<double, 4, 6, Eigen::RowMajor> e = qu_e[c];
+    al.add_cell_coupling(cells[c], cells[c], std::span(e.data(), e.size()));
+  }
+  EXPECT_THROW(al.end(pA_qq), std::logic_error);
 
   // rhs_u += gamma B^T W^-1 (r_q - A_qq z_q)|_p with the assembled B and W
   Eigen::MatrixXd B(nodes, 3 * nodes);
@@ -382,7 +425,7 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
     VecAssemblyBegin(v);
     VecAssemblyEnd(v);
   }
-  al.add_constraint_rows(v_rhs, v_r, v_z, pA_qu, pA_qq);
+  EXPECT_EQ(al.add_constraint_rows(v_rhs, v_r, v_z, pA_qu, pA_qq), 0);
   const PetscScalar* got;
   VecGetArrayRead(v_rhs, &got);
   for (int i = 0; i < 3 * nodes; ++i)

@@ -10,44 +10,38 @@ AugmentedLagrangian::~AugmentedLagrangian()
 {
   VecDestroy(&_w_inv);
   VecDestroy(&_work);
-  MatDestroy(&_cell_sum);
   MatDestroy(&_A_gamma);
 }
 
-void AugmentedLagrangian::begin(Mat A, Mat A_qq)
+void AugmentedLagrangian::begin(Mat A)
 {
-  if (!_w_inv)
-    MatCreateVecs(A_qq, &_w_inv, &_work);
-  PetscInt start, end;
-  MatGetOwnershipRange(A_qq, &start, &end);
-  for (PetscInt row = start; row < end; row += 2) // theta rows: even
-  {
-    PetscInt n;
-    const PetscInt* cols;
-    const PetscScalar* values;
-    MatGetRow(A_qq, row, &n, &cols, &values);
-    double lumped = 0;
-    for (PetscInt k = 0; k < n; ++k)
-      if (cols[k] % 2 == 1)
-        lumped -= values[k];
-    MatRestoreRow(A_qq, row, &n, &cols, &values);
-    VecSetValue(_w_inv, row, 0.0, INSERT_VALUES);
-    VecSetValue(_w_inv, row + 1, 1.0 / lumped, INSERT_VALUES);
-  }
-  VecAssemblyBegin(_w_inv);
-  VecAssemblyEnd(_w_inv);
-
   PetscObjectState pattern;
   MatGetNonzeroState(A, &pattern);
-  if (pattern != _pattern)
+  if (!_A_gamma or pattern != _pattern)
   {
-    MatDestroy(&_cell_sum);
-    MatDuplicate(A, MAT_DO_NOT_COPY_VALUES, &_cell_sum);
+    // a new object rather than MatCopy(DIFFERENT_NONZERO_PATTERN), which
+    // replaces the matrix's header and loses what is attached to it
+    MatNullSpace near_null_space = nullptr;
+    if (_A_gamma)
+    {
+      MatGetNearNullSpace(_A_gamma, &near_null_space);
+      PetscObjectReference(reinterpret_cast<PetscObject>(near_null_space));
+      MatDestroy(&_A_gamma);
+    }
+    MatDuplicate(A, MAT_COPY_VALUES, &_A_gamma);
+    if (near_null_space)
+    {
+      MatSetNearNullSpace(_A_gamma, near_null_space);
+      MatNullSpaceDestroy(&near_null_space);
+    }
+    _pattern = pattern;
   }
-  MatZeroEntries(_cell_sum);
+  else
+    MatCopy(A, _A_gamma, SAME_NONZERO_PATTERN);
   _cell_w.clear();
   _cell_q.clear();
   _next = 0;
+  _order_broken = false;
 }
 
 void AugmentedLagrangian::add_cell_mass(std::span<const std::int32_t> q_dofs,
@@ -69,9 +63,12 @@ void AugmentedLagrangian::add_cell_coupling(std::span<const std::int32_t> q_dofs
                                             std::span<const double> A_qu_e)
 {
   const std::size_t n = q_dofs.size(), m = 3 * u_dofs.size();
-  if (_next + n > _cell_q.size()
+  if (_order_broken or _next + n > _cell_q.size()
       or !std::equal(q_dofs.begin(), q_dofs.end(), _cell_q.begin() + _next))
-    throw std::logic_error("AugmentedLagrangian: A_qu's cells do not follow A_qq's");
+  {
+    _order_broken = true;
+    return;
+  }
   _K.assign(m * m, 0.0);
   for (std::size_t i = 0; i < n; ++i)
   {
@@ -83,38 +80,49 @@ void AugmentedLagrangian::add_cell_coupling(std::span<const std::int32_t> q_dofs
   }
   _next += n;
   _u_dofs.assign(u_dofs.begin(), u_dofs.end());
-  MatSetValuesBlockedLocal(_cell_sum, _u_dofs.size(), _u_dofs.data(), _u_dofs.size(),
+  MatSetValuesBlockedLocal(_A_gamma, _u_dofs.size(), _u_dofs.data(), _u_dofs.size(),
                            _u_dofs.data(), _K.data(), ADD_VALUES);
 }
 
-Mat AugmentedLagrangian::end(Mat A)
+void AugmentedLagrangian::end(Mat A_qq)
 {
-  MatAssemblyBegin(_cell_sum, MAT_FINAL_ASSEMBLY);
-  MatAssemblyEnd(_cell_sum, MAT_FINAL_ASSEMBLY);
-  PetscObjectState pattern;
-  MatGetNonzeroState(A, &pattern);
-  if (!_A_gamma)
-    MatDuplicate(A, MAT_COPY_VALUES, &_A_gamma);
-  else if (pattern != _pattern)
+  MatAssemblyBegin(_A_gamma, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(_A_gamma, MAT_FINAL_ASSEMBLY);
+  if (_order_broken or _next != _cell_q.size())
+    throw std::logic_error("AugmentedLagrangian: the cells of A_qu's assembly do not follow "
+                           "A_qq's");
+  if (!_w_inv)
+    MatCreateVecs(A_qq, &_w_inv, &_work);
+  PetscInt start, stop;
+  MatGetOwnershipRange(A_qq, &start, &stop);
+  for (PetscInt row = start; row < stop; row += 2) // theta rows: even
   {
-    MatSetOption(_A_gamma, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
-    MatCopy(A, _A_gamma, DIFFERENT_NONZERO_PATTERN);
+    PetscInt n;
+    const PetscInt* cols;
+    const PetscScalar* values;
+    MatGetRow(A_qq, row, &n, &cols, &values);
+    double lumped = 0;
+    for (PetscInt k = 0; k < n; ++k)
+      if (cols[k] % 2 == 1)
+        lumped -= values[k];
+    MatRestoreRow(A_qq, row, &n, &cols, &values);
+    VecSetValue(_w_inv, row, 0.0, INSERT_VALUES);
+    VecSetValue(_w_inv, row + 1, 1.0 / lumped, INSERT_VALUES);
   }
-  else
-    MatCopy(A, _A_gamma, SAME_NONZERO_PATTERN);
-  _pattern = pattern;
-  MatAXPY(_A_gamma, 1.0, _cell_sum, SUBSET_NONZERO_PATTERN);
-  return _A_gamma;
+  VecAssemblyBegin(_w_inv);
+  VecAssemblyEnd(_w_inv);
 }
 
-void AugmentedLagrangian::add_constraint_rows(Vec rhs_u, Vec r_q, Vec z_q, Mat A_qu,
-                                              Mat A_qq)
+PetscErrorCode AugmentedLagrangian::add_constraint_rows(Vec rhs_u, Vec r_q, Vec z_q,
+                                                        Mat A_qu, Mat A_qq)
 {
-  MatMult(A_qq, z_q, _work);
-  VecAYPX(_work, -1.0, r_q);
-  VecPointwiseMult(_work, _work, _w_inv);
-  VecScale(_work, _gamma);
-  MatMultTransposeAdd(A_qu, _work, rhs_u, rhs_u);
+  PetscFunctionBeginUser;
+  PetscCall(MatMult(A_qq, z_q, _work));
+  PetscCall(VecAYPX(_work, -1.0, r_q));
+  PetscCall(VecPointwiseMult(_work, _work, _w_inv));
+  PetscCall(VecScale(_work, _gamma));
+  PetscCall(MatMultTransposeAdd(A_qu, _work, rhs_u, rhs_u));
+  PetscFunctionReturn(0);
 }
 
 } // namespace muscle

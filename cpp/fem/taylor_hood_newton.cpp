@@ -17,6 +17,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <dolfinx/fem/assembler.h>
 #include <dolfinx/fem/petsc.h>
 #include <dolfinx/la/petsc.h>
@@ -147,18 +148,40 @@ void NonlinearSolver::assemble_mixed_jacobian()
   const std::array<const fem::Form<double>*, 3> forms
       = {f.jacobian_uq.get(), f.jacobian_qu.get(), f.jacobian_qq.get()};
   bool finite = std::isfinite(_matrix_norm);
-  for (std::size_t i = 0; i < 3; ++i)
+  if (_augmented)
+    _augmented->begin(_A);
+  // A_qq before A_qu: the augmented Lagrangian takes each cell's lumped mass from
+  // the one and sums B_c^T W_c^-1 B_c from the other, cell by cell
+  for (std::size_t i : {0, 2, 1})
   {
     Mat M = _th_blocks[i];
     MatZeroEntries(M);
+    auto set = la::petsc::Matrix::set_block_fn(M, ADD_VALUES);
+    std::function<int(const std::span<const std::int32_t>&, const std::span<const std::int32_t>&,
+                      const std::span<const double>&)>
+        add = set;
+    if (_augmented and i == 2)
+      add = [&set, al = _augmented.get()](const auto& rows, const auto& cols, const auto& values)
+      {
+        al->add_cell_mass(rows, values);
+        return set(rows, cols, values);
+      };
+    else if (_augmented and i == 1)
+      add = [&set, al = _augmented.get()](const auto& rows, const auto& cols, const auto& values)
+      {
+        al->add_cell_coupling(rows, cols, values);
+        return set(rows, cols, values);
+      };
     // Dirichlet rows (of A_uq) and columns (of A_qu) zeroed: A carries unit rows there
-    fem::assemble_matrix(la::petsc::Matrix::set_block_fn(M, ADD_VALUES), *forms[i], _bcs);
+    fem::assemble_matrix(add, *forms[i], _bcs);
     MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY);
     MatAssemblyEnd(M, MAT_FINAL_ASSEMBLY);
     PetscReal norm;
     MatNorm(M, NORM_FROBENIUS, &norm);
     finite = finite and std::isfinite(norm);
   }
+  if (_augmented)
+    _augmented->end(_th_blocks[2]);
   if (!finite)
   {
     _matrix_norm = std::numeric_limits<double>::quiet_NaN();
@@ -456,15 +479,15 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
     KSPGetPC(coarse, &amg);
     PCSetType(amg, PCGAMG);
   }
-  update_mixed_shell();
   if (!pmg)
-  {
-    Mat op;
-    KSPGetOperators(_u_ksp, &op, nullptr);
     _near_null_space = rigid_body_modes(*_problem.V(), nullptr,
                                         _options.near_null_space == "bodies");
-    MatSetNearNullSpace(op, _near_null_space);
-  }
+  // A_gamma is summed during the Jacobian's assembly, which ran before the
+  // augmented Lagrangian existed: once more now (update_mixed_shell at its end)
+  if (_augmented)
+    assemble_mixed_jacobian();
+  else
+    update_mixed_shell();
   KSPSetFromOptions(_u_ksp);
 
   PCSetType(pc, PCSHELL);
@@ -488,26 +511,11 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
 
 void NonlinearSolver::update_mixed_shell()
 {
-  // A and A_gamma change in place, so this sets the same operator each time
-  Mat op = _A;
-  if (_augmented)
-  {
-    // the element matrices of A_qq and A_qu once more, handed to the cell sum
-    const MuscleProblem::TaylorHoodForms& f = _problem.th_forms();
-    AugmentedLagrangian& al = *_augmented;
-    al.begin(_A, _th_blocks[2]);
-    fem::assemble_matrix([&al](const std::span<const std::int32_t>& rows,
-                               const std::span<const std::int32_t>&,
-                               const std::span<const double>& values)
-                         { al.add_cell_mass(rows, values); return 0; },
-                         *f.jacobian_qq, _bcs);
-    fem::assemble_matrix([&al](const std::span<const std::int32_t>& rows,
-                               const std::span<const std::int32_t>& cols,
-                               const std::span<const double>& values)
-                         { al.add_cell_coupling(rows, cols, values); return 0; },
-                         *f.jacobian_qu, _bcs);
-    op = al.end(_A);
-  }
+  // A changes in place; A_gamma too, but for a new object when contact changes
+  // A's pattern, so the near-null space goes on each time (GAMG reads it at set-up)
+  Mat op = _augmented ? _augmented->matrix() : _A;
+  if (!_coarsening)
+    MatSetNearNullSpace(op, _near_null_space);
   KSPSetOperators(_u_ksp, op, op);
   PC u_pc;
   KSPGetPC(_u_ksp, &u_pc);
@@ -549,14 +557,12 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
     PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
     solve(self->_q_ksp, self->_mix_q_in, self->_mix_q_out);
     if (!failed)
-    {
-      MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs);
-      VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in);
-      if (self->_augmented)
-        self->_augmented->add_constraint_rows(self->_mix_u_rhs, self->_mix_q_in,
-                                              self->_mix_q_out, self->_th_blocks[1],
-                                              self->_th_blocks[2]);
-    }
+      failed = MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs)
+               or VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in)
+               or (self->_augmented
+                   and self->_augmented->add_constraint_rows(
+                       self->_mix_u_rhs, self->_mix_q_in, self->_mix_q_out,
+                       self->_th_blocks[1], self->_th_blocks[2]));
     solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
     PetscPopErrorHandler();
   }
