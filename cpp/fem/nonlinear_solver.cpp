@@ -152,6 +152,15 @@ NonlinearSolver::NonlinearSolver(
 
 void NonlinearSolver::configure_linear_solver(KSP linear)
 {
+  // PETSc would ignore -al_gamma elsewhere without a word (its unused-option warning
+  // is off in our runs), and the user would believe the run augmented
+  PetscBool al_given = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, "-al_gamma", &al_given);
+  if (al_given and !(_taylor_hood and _options.linear_solver == "gmres-schur"))
+    throw InputError("-al_gamma: the augmented-Lagrangian form of the Taylor-Hood split, for "
+                     "element.taylor_hood: true with linear: gmres-schur only; this run "
+                     "solves with linear: " + _options.linear_solver
+                     + (_taylor_hood ? " on Taylor-Hood elements" : " on another element"));
   PC pc;
   KSPGetPC(linear, &pc);
   if (_options.linear_solver == "lu")

@@ -327,6 +327,18 @@ def test_taylor_hood_al_gamma_must_be_positive(build, scratch):
     assert "-al_gamma '-1'" in result.stderr and "> 0" in result.stderr, result.stderr
 
 
+@pytest.mark.parametrize("sets, says", [
+    (TAYLOR_HOOD + ["solver.linear=lu"], "linear: lu on Taylor-Hood"),
+    (["solver.linear=gmres-gamg"], "linear: gmres-gamg on another element")])
+def test_taylor_hood_al_gamma_only_with_its_split(build, scratch, sets, says):
+    """-al_gamma means the Taylor-Hood split; with MUMPS or on another element it would do
+    nothing, silently: refused, naming what the run has."""
+    result = muscle_run(build, CANTILEVER, scratch, QUIET + sets + [
+        "time.end=0.2", "solver.petsc=-al_gamma 1"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "-al_gamma" in result.stderr and says in result.stderr, result.stderr
+
+
 @pytest.mark.parametrize("model", ["ble", "wkm", "giant", "combi"])
 def test_taylor_hood_every_law(build, scratch, record, model):
     """The box of compression.yaml made of an active muscle law, fibres along the load,
