@@ -103,6 +103,10 @@ def mesh_numbers(sets):
     return [s for s in sets if s.startswith("mesh.set.")]
 
 
+# p-multigrid with its Q1 level by MUMPS, as the run names spell the options
+_EXACT_Q1 = ("_fieldsplit_u_pc_typemg_fieldsplit_u_mg_coarse_pc_typelu"
+             "_fieldsplit_u_mg_coarse_pc_factor_mat_solver_typemumps")
+
 # Run aliases for the template: COMBI, 0.05 s steps, MUMPS on one rank unless the name
 # says otherwise; q1 plain trilinear hexahedra, fb F-bar, q2 triquadratic, p1/p2
 # tetrahedra; n2/n4 the refinement (n = 1 otherwise); k100 kappa = 100.
@@ -225,6 +229,15 @@ RUNS = {
     # and with p-multigrid on the displacement block (n = 1)
     **{f"kthm_k{k}": f"kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa{k}"
        "_fieldsplit_u_pc_typemg" for k in (10, 100, 1000, 10000)},
+    # the augmented-Lagrangian blocks under GAMG (kta), and p-multigrid with its Q1 level
+    # solved by MUMPS, plain (ktme) and augmented (ktae); n = 1, and n = 2 at kappa = 1000
+    # under GAMG
+    **{f"{key}{n if n > 1 else ''}_k{k}":
+       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}{suffix}"
+       for key, suffix in (("kta", "_al_gamma1"), ("ktme", _EXACT_Q1),
+                           ("ktae", "_al_gamma1" + _EXACT_Q1))
+       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,) if key == "kta" else ()))
+       for k in kappas},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -701,6 +714,17 @@ KAPPA_CANDIDATES = {
     # p-multigrid on the displacement block: Q2 -> Q1 by interpolation, GAMG on P^T A P
     # (cpp/fem/p_multigrid.cpp), Jacobi-Chebyshev on Q2
     "Taylor-Hood, Schur split, p-multigrid": ("gmres-schur", ("-fieldsplit_u_pc_type mg",)),
+    # the augmented-Lagrangian blocks (gamma = mu at rest, cpp/fem/augmented_lagrangian.cpp)
+    # under GAMG; and two diagnoses, p-multigrid with its Q1 level solved by MUMPS, plain
+    # and augmented: what is left is the Schur approximation and the Q2 smoothing
+    "Taylor-Hood, Schur split, augmented Lagrangian": ("gmres-schur", ("-al_gamma 1",)),
+    "Taylor-Hood, Schur split, p-multigrid, exact Q1": (
+        "gmres-schur", ("-fieldsplit_u_pc_type mg", "-fieldsplit_u_mg_coarse_pc_type lu",
+                        "-fieldsplit_u_mg_coarse_pc_factor_mat_solver_type mumps")),
+    "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, exact Q1": (
+        "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
+                        "-fieldsplit_u_mg_coarse_pc_type lu",
+                        "-fieldsplit_u_mg_coarse_pc_factor_mat_solver_type mumps")),
 }
 
 

@@ -549,8 +549,7 @@ def phase_fbar(args, records):
 # 418,693 unknowns) and the n = 1 timeout in place of --kappa-timeout.  Taylor-Hood's
 # Schur split is PETSc's field split on (u | theta, p), the inf-sup stable pair.
 KAPPA_ELEMENTS = {label: (dict(degree=2, taylor_hood=True), (1, 2), 900)
-                  for label in ("Taylor-Hood, Schur split", "Taylor-Hood, Schur split, BoomerAMG",
-                                "Taylor-Hood, Schur split, p-multigrid")}
+                  for label in KAPPA_CANDIDATES if label.startswith("Taylor-Hood")}
 
 
 def kappa_runs(args):
