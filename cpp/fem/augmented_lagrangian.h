@@ -40,8 +40,8 @@ public:
   /// for every cell of A_qu's, in the same cell order, with the blocked local
   /// dofs and row-major element matrices that DOLFINx's assembler hands on
   /// (q = (theta, p) interleaved per degree-1 node, block size 2; u: 3).
-  /// The same matrix object while A's nonzero pattern holds; a new pattern
-  /// (contact) gives a new object that carries the old one's near-null space.
+  /// The same matrix object while A's nonzero pattern holds; a new pattern gives
+  /// a new object that carries the old one's near-null space.
   void begin(Mat A);
   void add_cell_mass(std::span<const std::int32_t> q_dofs, std::span<const double> A_qq_e);
   void add_cell_coupling(std::span<const std::int32_t> q_dofs,

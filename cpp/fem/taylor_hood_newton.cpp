@@ -17,7 +17,6 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <functional>
 #include <dolfinx/fem/assembler.h>
 #include <dolfinx/fem/petsc.h>
 #include <dolfinx/la/petsc.h>
@@ -157,21 +156,16 @@ void NonlinearSolver::assemble_mixed_jacobian()
     Mat M = _th_blocks[i];
     MatZeroEntries(M);
     auto set = la::petsc::Matrix::set_block_fn(M, ADD_VALUES);
-    std::function<int(const std::span<const std::int32_t>&, const std::span<const std::int32_t>&,
-                      const std::span<const double>&)>
-        add = set;
-    if (_augmented and i == 2)
-      add = [&set, al = _augmented.get()](const auto& rows, const auto& cols, const auto& values)
-      {
+    auto add = [&set, al = _augmented.get(), i](const std::span<const std::int32_t>& rows,
+                                                const std::span<const std::int32_t>& cols,
+                                                const std::span<const double>& values)
+    {
+      if (al and i == 2)
         al->add_cell_mass(rows, values);
-        return set(rows, cols, values);
-      };
-    else if (_augmented and i == 1)
-      add = [&set, al = _augmented.get()](const auto& rows, const auto& cols, const auto& values)
-      {
+      else if (al and i == 1)
         al->add_cell_coupling(rows, cols, values);
-        return set(rows, cols, values);
-      };
+      return set(rows, cols, values);
+    };
     // Dirichlet rows (of A_uq) and columns (of A_qu) zeroed: A carries unit rows there
     fem::assemble_matrix(add, *forms[i], _bcs);
     MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY);
@@ -511,8 +505,8 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
 
 void NonlinearSolver::update_mixed_shell()
 {
-  // A changes in place; A_gamma too, but for a new object when contact changes
-  // A's pattern, so the near-null space goes on each time (GAMG reads it at set-up)
+  // A changes in place; A_gamma too, but for a new object when A's nonzero pattern
+  // changes, so the near-null space goes on each time (GAMG reads it at set-up)
   Mat op = _augmented ? _augmented->matrix() : _A;
   if (!_coarsening)
     MatSetNearNullSpace(op, _near_null_space);
