@@ -42,6 +42,7 @@ void AugmentedLagrangian::begin(Mat A)
   _cell_q.clear();
   _next = 0;
   _order_broken = false;
+  _insert_failed = false;
 }
 
 void AugmentedLagrangian::add_cell_mass(std::span<const std::int32_t> q_dofs,
@@ -80,17 +81,26 @@ void AugmentedLagrangian::add_cell_coupling(std::span<const std::int32_t> q_dofs
   }
   _next += n;
   _u_dofs.assign(u_dofs.begin(), u_dofs.end());
-  MatSetValuesBlockedLocal(_A_gamma, _u_dofs.size(), _u_dofs.data(), _u_dofs.size(),
-                           _u_dofs.data(), _K.data(), ADD_VALUES);
+  if (MatSetValuesBlockedLocal(_A_gamma, _u_dofs.size(), _u_dofs.data(), _u_dofs.size(),
+                               _u_dofs.data(), _K.data(), ADD_VALUES))
+    _insert_failed = true;
 }
 
 void AugmentedLagrangian::end(Mat A_qq)
 {
   MatAssemblyBegin(_A_gamma, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(_A_gamma, MAT_FINAL_ASSEMBLY);
-  if (_order_broken or _next != _cell_q.size())
+  // one rank's defect, every rank's throw: a throw on one rank alone would leave
+  // the others waiting in the next collective call
+  int broken[2] = {_order_broken or _next != _cell_q.size(), _insert_failed};
+  MPI_Allreduce(MPI_IN_PLACE, broken, 2, MPI_INT, MPI_MAX,
+                PetscObjectComm(reinterpret_cast<PetscObject>(_A_gamma)));
+  if (broken[0])
     throw std::logic_error("AugmentedLagrangian: the cells of A_qu's assembly do not follow "
                            "A_qq's");
+  if (broken[1])
+    throw std::runtime_error("AugmentedLagrangian: PETSc refused a cell's entries of "
+                             "A_gamma (its message above)");
   if (!_w_inv)
     MatCreateVecs(A_qq, &_w_inv, &_work);
   PetscInt start, stop;

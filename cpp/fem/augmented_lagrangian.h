@@ -47,8 +47,10 @@ public:
   void add_cell_coupling(std::span<const std::int32_t> q_dofs,
                          std::span<const std::int32_t> u_dofs, std::span<const double> A_qu_e);
   /// Closes A_gamma and takes the global lumped W from the assembled A_qq (its
-  /// (theta, p) block is -M).  Throws std::logic_error if the cells of the two
-  /// assemblies did not match (checked here, not inside the assembler's loop).
+  /// (theta, p) block is -M).  Throws, on every rank, std::logic_error if the
+  /// cells of the two assemblies did not match on some rank (checked here, not
+  /// inside the assembler's loop) and std::runtime_error if PETSc refused an
+  /// insertion.
   void end(Mat A_qq);
   /// A_gamma = A + gamma sum_c B_c^T W_c^-1 B_c, owned here
   Mat matrix() const { return _A_gamma; }
@@ -68,6 +70,7 @@ private:
   std::vector<std::int32_t> _cell_q; ///< per cell, its q dofs (to check the order)
   std::size_t _next = 0;         ///< add_cell_coupling's place in _cell_w
   bool _order_broken = false;
+  bool _insert_failed = false;   ///< a MatSetValuesBlockedLocal error
   std::vector<double> _K;        ///< one cell's gamma B_c^T W_c^-1 B_c
   std::vector<PetscInt> _u_dofs;
 };

@@ -1,6 +1,7 @@
 #include "nonlinear_solver.h"
 
 #include "../common/errors.h"
+#include "../common/petsc_options.h"
 #include "augmented_lagrangian.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
@@ -8,6 +9,8 @@
 #include "rigid_body_modes.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <dolfinx/fem/assembler.h>
 #include <dolfinx/fem/petsc.h>
 #include <dolfinx/la/petsc.h>
@@ -96,6 +99,7 @@ NonlinearSolver::NonlinearSolver(
     VecDuplicate(_b_petsc, &F);
   }
   const bool taylor_hood = _problem.taylor_hood();
+  read_al_gamma(taylor_hood);
   if (three_field)
   {
     VecDestroy(&F);
@@ -150,17 +154,35 @@ NonlinearSolver::NonlinearSolver(
   }
 }
 
-void NonlinearSolver::configure_linear_solver(KSP linear)
+void NonlinearSolver::read_al_gamma(bool taylor_hood)
 {
+  PetscBool given = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, "-al_gamma", &given);
+  if (!given)
+    return;
   // PETSc would ignore -al_gamma elsewhere without a word (its unused-option warning
   // is off in our runs), and the user would believe the run augmented
-  PetscBool al_given = PETSC_FALSE;
-  PetscOptionsHasName(nullptr, nullptr, "-al_gamma", &al_given);
-  if (al_given and !(_taylor_hood and _options.linear_solver == "gmres-schur"))
+  if (!(taylor_hood and _options.linear_solver == "gmres-schur"))
     throw InputError("-al_gamma: the augmented-Lagrangian form of the Taylor-Hood split, for "
-                     "element.taylor_hood: true with linear: gmres-schur only; this run "
-                     "solves with linear: " + _options.linear_solver
-                     + (_taylor_hood ? " on Taylor-Hood elements" : " on another element"));
+                     "element.taylor_hood: true with linear: gmres-schur only; this run has "
+                     + (taylor_hood ? "linear: " + _options.linear_solver
+                                    : std::string("element.taylor_hood: false")));
+  // B^T W^-1 B acts on the whole displacement, not on a constraint's reduced unknowns
+  if (_constraint)
+    throw InputError("-al_gamma (the augmented-Lagrangian split): not with a linear "
+                     "constraint (uniform_axial, tie); leave -al_gamma out");
+  const std::string text = string_option("-al_gamma");
+  char* end = nullptr;
+  _al_gamma = std::strtod(text.c_str(), &end);
+  if (text.empty() or *end != '\0' or !(_al_gamma > 0) or !std::isfinite(_al_gamma))
+    throw InputError("-al_gamma '" + text
+                     + "': the augmented Lagrangian's penalty over the law's shear "
+                       "modulus at rest must be a number > 0 (1 is a good start); leave "
+                       "the option out for the plain Schur split");
+}
+
+void NonlinearSolver::configure_linear_solver(KSP linear)
+{
   PC pc;
   KSPGetPC(linear, &pc);
   if (_options.linear_solver == "lu")

@@ -177,6 +177,8 @@ public:
 
 private:
   // nonlinear_solver.cpp: the linear solver of the Newton steps
+  /// -al_gamma, checked against the element, the solver and a constraint
+  void read_al_gamma(bool taylor_hood);
   void configure_linear_solver(KSP linear);
 
   // newton_callbacks.cpp: what SNES calls back (the residual and the Jacobian at
@@ -266,6 +268,7 @@ private:
   Vec _mix_u_in = nullptr, _mix_u_out = nullptr; ///< u parts of [u | q] (no own array)
   Vec _mix_q_in = nullptr, _mix_q_out = nullptr; ///< q parts (no own array)
   Vec _mix_u_rhs = nullptr;
+  double _al_gamma = 0;      ///< -al_gamma: the penalty over mu at rest; 0: off
   double _shear_modulus = 0; ///< of the law at rest (the Schur approximation's scale)
   /// the coupling blocks under the constraint: T^T A_uq, A_qu T
   void reduce_mixed_blocks(bool first);

@@ -33,6 +33,9 @@ std::int32_t owned_size(const la::Vector<double>& v)
 {
   return v.map()->size_local() * v.bs();
 }
+
+/// the law's mu from its tangent at F = I (the Schur approximation's scale)
+double shear_modulus_at_rest(const ParameterSet& parameters, const std::string& kernels);
 } // namespace
 
 void NonlinearSolver::create_pressure_unknowns()
@@ -57,6 +60,11 @@ void NonlinearSolver::create_pressure_unknowns()
   VecGetLocalSize(_x, &n);
   VecCreateMPI(comm, n + owned_size(*_bq), PETSC_DETERMINE, &_x_ext);
   VecDuplicate(_x, &_tmp);
+  // A_gamma is summed during the Jacobian's assembly: it must exist before the first
+  if (_options.linear_solver == "gmres-schur")
+    _shear_modulus = shear_modulus_at_rest(_problem.parameters(), _problem.kernel_name());
+  if (_al_gamma > 0)
+    _augmented = std::make_unique<AugmentedLagrangian>(_al_gamma * _shear_modulus);
   // the nest and its assembled copy need the patterns before SNES holds them
   _problem.u()->x()->scatter_fwd();
   update_activation();
@@ -357,26 +365,9 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   // (update_schur_preconditioner) and factored (q is small: two unknowns per
   // degree-1 node).  The kappa part is kept exactly and the pair is inf-sup
   // stable, so the count does not grow with kappa.
-  _shear_modulus = shear_modulus_at_rest(_problem.parameters(), _problem.kernel_name());
   MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
-  PetscBool al_given = PETSC_FALSE;
-  PetscOptionsHasName(nullptr, nullptr, "-al_gamma", &al_given);
-  double gamma = 0;
-  if (al_given)
-  {
-    const std::string text = string_option("-al_gamma");
-    char* end = nullptr;
-    gamma = std::strtod(text.c_str(), &end);
-    if (text.empty() or *end != '\0' or !(gamma > 0) or !std::isfinite(gamma))
-      throw InputError("-al_gamma '" + text
-                       + "': the augmented Lagrangian's penalty over the law's shear "
-                         "modulus at rest must be a number > 0 (1 is a good start); leave "
-                         "the option out for the plain Schur split");
-  }
-  if (al_given)
-    _augmented = std::make_unique<AugmentedLagrangian>(gamma * _shear_modulus);
   update_schur_preconditioner();
-  if (al_given or string_option("-fieldsplit_u_pc_type") == "mg")
+  if (_augmented or string_option("-fieldsplit_u_pc_type") == "mg")
   {
     configure_mixed_shell(pc);
     return;
@@ -421,9 +412,6 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
     throw InputError("-fieldsplit_u_pc_type mg (p-multigrid on the displacement block): "
                      "not with a linear constraint (uniform_axial, tie); use the default "
                      "-fieldsplit_u_pc_type gamg");
-  if (_constraint)
-    throw InputError("-al_gamma (the augmented-Lagrangian split): not with a linear "
-                     "constraint (uniform_axial, tie); leave -al_gamma out");
   MPI_Comm comm = _problem.mesh()->comm();
   PetscInt n;
   VecGetLocalSize(_x, &n);
@@ -476,12 +464,7 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
   if (!pmg)
     _near_null_space = rigid_body_modes(*_problem.V(), nullptr,
                                         _options.near_null_space == "bodies");
-  // A_gamma is summed during the Jacobian's assembly, which ran before the
-  // augmented Lagrangian existed: once more now (update_mixed_shell at its end)
-  if (_augmented)
-    assemble_mixed_jacobian();
-  else
-    update_mixed_shell();
+  update_mixed_shell();
   KSPSetFromOptions(_u_ksp);
 
   PCSetType(pc, PCSHELL);
@@ -557,6 +540,11 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
                    and self->_augmented->add_constraint_rows(
                        self->_mix_u_rhs, self->_mix_q_in, self->_mix_q_out,
                        self->_th_blocks[1], self->_th_blocks[2]));
+    // a product's error is one rank's, the u-solve is every rank's: agree first
+    int any_failed = failed;
+    MPI_Allreduce(MPI_IN_PLACE, &any_failed, 1, MPI_INT, MPI_LOR,
+                  PetscObjectComm(reinterpret_cast<PetscObject>(pc)));
+    failed = any_failed;
     solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
     PetscPopErrorHandler();
   }

@@ -328,8 +328,8 @@ def test_taylor_hood_al_gamma_must_be_positive(build, scratch):
 
 
 @pytest.mark.parametrize("sets, says", [
-    (TAYLOR_HOOD + ["solver.linear=lu"], "linear: lu on Taylor-Hood"),
-    (["solver.linear=gmres-gamg"], "linear: gmres-gamg on another element")])
+    (TAYLOR_HOOD + ["solver.linear=lu"], "this run has linear: lu"),
+    (["solver.linear=gmres-gamg"], "this run has element.taylor_hood: false")])
 def test_taylor_hood_al_gamma_only_with_its_split(build, scratch, sets, says):
     """-al_gamma means the Taylor-Hood split; with MUMPS or on another element it would do
     nothing, silently: refused, naming what the run has."""
