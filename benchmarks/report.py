@@ -238,6 +238,14 @@ RUNS = {
                            ("ktae", "_al_gamma1" + _EXACT_Q1))
        for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,) if key == "kta" else ()))
        for k in kappas},
+    # at kappa = 1000, n = 1 and 2: the augmented block under BoomerAMG (ktah), under
+    # p-multigrid with GAMG on Q1 (ktam), and gamma = 0.3 and 3 mu under GAMG (ktg03, ktg3); _n2: n = 2
+    **{f"{key}{'_n2' if n > 1 else ''}_k1000":
+       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa1000{suffix}"
+       for key, suffix in (("ktah", "_al_gamma1_fieldsplit_u_pc_typehypre"),
+                           ("ktam", "_al_gamma1_fieldsplit_u_pc_typemg"),
+                           ("ktg03", "_al_gamma0.3"), ("ktg3", "_al_gamma3"))
+       for n in (1, 2)},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -718,6 +726,17 @@ KAPPA_CANDIDATES = {
     # under GAMG; and two diagnoses, p-multigrid with its Q1 level solved by MUMPS, plain
     # and augmented: what is left is the Schur approximation and the Q2 smoothing
     "Taylor-Hood, Schur split, augmented Lagrangian": ("gmres-schur", ("-al_gamma 1",)),
+    # gamma = 0.3 mu (fewer iterations on the bending cantilever than 1 mu, by hand)
+    # and 3 mu
+    "Taylor-Hood, Schur split, augmented Lagrangian, gamma 0.3 mu": (
+        "gmres-schur", ("-al_gamma 0.3",)),
+    "Taylor-Hood, Schur split, augmented Lagrangian, gamma 3 mu": (
+        "gmres-schur", ("-al_gamma 3",)),
+    # the augmented block under BoomerAMG for systems and under p-multigrid (GAMG on Q1)
+    "Taylor-Hood, Schur split, augmented Lagrangian, BoomerAMG": (
+        "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type hypre")),
+    "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid": (
+        "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg")),
     "Taylor-Hood, Schur split, p-multigrid, exact Q1": (
         "gmres-schur", ("-fieldsplit_u_pc_type mg", "-fieldsplit_u_mg_coarse_pc_type lu",
                         "-fieldsplit_u_mg_coarse_pc_factor_mat_solver_type mumps")),
