@@ -100,7 +100,7 @@ void AugmentedLagrangian::end(Mat A_qq)
                            "A_qq's");
   if (broken[1])
     throw std::runtime_error("AugmentedLagrangian: PETSc refused a cell's entries of "
-                             "A_gamma (its message above)");
+                             "A_gamma (MatSetValuesBlockedLocal failed)");
   if (!_w_inv)
     MatCreateVecs(A_qq, &_w_inv, &_work);
   PetscInt start, stop;

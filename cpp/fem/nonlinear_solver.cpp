@@ -99,7 +99,7 @@ NonlinearSolver::NonlinearSolver(
     VecDuplicate(_b_petsc, &F);
   }
   const bool taylor_hood = _problem.taylor_hood();
-  read_al_gamma(taylor_hood);
+  read_al_gamma(taylor_hood and !three_field);
   if (three_field)
   {
     VecDestroy(&F);
@@ -158,15 +158,17 @@ void NonlinearSolver::read_al_gamma(bool taylor_hood)
 {
   PetscBool given = PETSC_FALSE;
   PetscOptionsHasName(nullptr, nullptr, "-al_gamma", &given);
-  if (!given)
+  // a Taylor-Hood run with a solver it cannot use: create_pressure_unknowns says so
+  const std::string& solver = _options.linear_solver;
+  if (!given or (taylor_hood and solver != "lu" and solver != "gmres-schur"))
     return;
   // PETSc would ignore -al_gamma elsewhere without a word (its unused-option warning
   // is off in our runs), and the user would believe the run augmented
   if (!(taylor_hood and _options.linear_solver == "gmres-schur"))
-    throw InputError("-al_gamma: the augmented-Lagrangian form of the Taylor-Hood split, for "
-                     "element.taylor_hood: true with linear: gmres-schur only; this run has "
-                     + (taylor_hood ? "linear: " + _options.linear_solver
-                                    : std::string("element.taylor_hood: false")));
+    throw InputError(std::string("-al_gamma: the augmented-Lagrangian form of the Taylor-Hood "
+                                 "split, for element.taylor_hood: true with linear: "
+                                 "gmres-schur only; this run has ")
+                     + (taylor_hood ? "" : "element.taylor_hood: false, ") + "linear: " + solver);
   // B^T W^-1 B acts on the whole displacement, not on a constraint's reduced unknowns
   if (_constraint)
     throw InputError("-al_gamma (the augmented-Lagrangian split): not with a linear "

@@ -548,6 +548,11 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
     solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
     PetscPopErrorHandler();
   }
+  // and on the u-solve: a PETSc error returned on one rank fails it on all
+  int any_failed = failed;
+  MPI_Allreduce(MPI_IN_PLACE, &any_failed, 1, MPI_INT, MPI_LOR,
+                PetscObjectComm(reinterpret_cast<PetscObject>(pc)));
+  failed = any_failed;
   if (failed)
   {
     PCSetFailedReason(pc, PC_SUBPC_ERROR);
