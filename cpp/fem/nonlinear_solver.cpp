@@ -164,7 +164,7 @@ void NonlinearSolver::read_al_gamma(bool taylor_hood)
     return;
   // PETSc would ignore -al_gamma elsewhere without a word (its unused-option warning
   // is off in our runs), and the user would believe the run augmented
-  if (!(taylor_hood and _options.linear_solver == "gmres-schur"))
+  if (!(taylor_hood and solver == "gmres-schur"))
     throw InputError(std::string("-al_gamma: the augmented-Lagrangian form of the Taylor-Hood "
                                  "split, for element.taylor_hood: true with linear: "
                                  "gmres-schur only; this run has ")

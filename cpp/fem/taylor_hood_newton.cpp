@@ -519,6 +519,14 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
   // linear solve, and the failure is cleared before the next one
   PCSetFailedReason(pc, PC_NOERROR);
   bool failed = false;
+  // a product's or a solve's PETSc error can be one rank's alone: every rank must
+  // take the same path into the collective u-solve and out of this apply
+  auto agree = [&failed, comm = PetscObjectComm(reinterpret_cast<PetscObject>(pc))]()
+  {
+    int any_failed = failed;
+    MPI_Allreduce(MPI_IN_PLACE, &any_failed, 1, MPI_INT, MPI_LOR, comm);
+    failed = any_failed;
+  };
   auto solve = [&failed](KSP ksp, Vec b, Vec x)
   {
     if (failed)
@@ -540,19 +548,11 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
                    and self->_augmented->add_constraint_rows(
                        self->_mix_u_rhs, self->_mix_q_in, self->_mix_q_out,
                        self->_th_blocks[1], self->_th_blocks[2]));
-    // a product's error is one rank's, the u-solve is every rank's: agree first
-    int any_failed = failed;
-    MPI_Allreduce(MPI_IN_PLACE, &any_failed, 1, MPI_INT, MPI_LOR,
-                  PetscObjectComm(reinterpret_cast<PetscObject>(pc)));
-    failed = any_failed;
+    agree();
     solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
     PetscPopErrorHandler();
   }
-  // and on the u-solve: a PETSc error returned on one rank fails it on all
-  int any_failed = failed;
-  MPI_Allreduce(MPI_IN_PLACE, &any_failed, 1, MPI_INT, MPI_LOR,
-                PetscObjectComm(reinterpret_cast<PetscObject>(pc)));
-  failed = any_failed;
+  agree();
   if (failed)
   {
     PCSetFailedReason(pc, PC_SUBPC_ERROR);
