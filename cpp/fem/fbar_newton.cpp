@@ -5,6 +5,7 @@
 
 #include "constraint.h"
 #include "fbar_unknowns.h"
+#include "linear_failure.h"
 
 #include <cmath>
 #include <dolfinx/fem/assembler.h>
@@ -252,9 +253,8 @@ PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
     KSPGetConvergedReason(self->_inner, &reason);
   if (reason < 0)
   {
-    PCSetFailedReason(pc, PC_SUBPC_ERROR);
-    VecSet(y_ext, 0.0);
     VecRestoreArrayRead(b_ext, &bb);
+    fail_shell_apply(pc, y_ext);
     return 0;
   }
   // dtheta, dp from du

@@ -61,6 +61,12 @@ std::string failed_preconditioner(PC pc, const std::string& where)
 }
 } // namespace
 
+void fail_shell_apply(PC pc, Vec z)
+{
+  PCSetFailedReason(pc, PC_SUBPC_ERROR);
+  VecSetInf(z);
+}
+
 std::string describe_linear_failure(KSP ksp, PetscErrorCode error)
 {
   KSPConvergedReason reason;

@@ -14,6 +14,21 @@ namespace muscle
 /// Empty when `ksp` did not fail.
 std::string describe_linear_failure(KSP ksp, PetscErrorCode error = 0);
 
+/// Fails a shell preconditioner's apply so that every Krylov method sees it: the
+/// reason on `pc`, Inf in `z`. A Krylov method learns of a preconditioner's
+/// failure only from the norm of its output (KSPCheckNorm: DIVERGED_PC_FAILED),
+/// which is how PETSc's own preconditioners report one; a zero output reads as a
+/// happy breakdown, and (F)GMRES "converges" to a zero Newton direction.
+void fail_shell_apply(PC pc, Vec z);
+
+/// Whether an inner solve of a shell preconditioner failed. A Krylov method
+/// stopped by its iteration limit (-fieldsplit_u_ksp_max_it) has still given an
+/// approximation, which is what an inexact inner solve under FGMRES is for.
+inline bool inner_solve_failed(KSPConvergedReason reason)
+{
+  return reason < 0 and reason != KSP_DIVERGED_ITS;
+}
+
 /// The advice that fits a failure described by describe_linear_failure.
 std::string linear_failure_advice(const std::string& description);
 

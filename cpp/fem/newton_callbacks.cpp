@@ -218,6 +218,7 @@ PetscErrorCode NonlinearSolver::convergence_test(SNES snes, PetscInt it,
     self->_stagnated = true;
     *reason = SNES_DIVERGED_MAX_IT;
   }
+  self->_test_verdict = *reason;
   return 0;
 }
 

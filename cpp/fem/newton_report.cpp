@@ -16,6 +16,20 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
   SNESGetConvergedReason(_snes, &reason);
   if (error and reason > 0)
     reason = SNES_DIVERGED_FUNCTION_DOMAIN; // never report an errored solve as converged
+  // the cp line search declares FNORM_ABS itself, without the convergence test,
+  // where dot(F, dx) vanishes: rightly at a residual of round-off size, wrongly
+  // for a zero direction, which only a failed linear solve returns (whatever its
+  // Krylov method reported)
+  bool untested = false;
+  if (reason > 0 and _test_verdict <= 0)
+  {
+    Vec dx;
+    PetscReal norm = 0;
+    SNESGetSolutionUpdate(_snes, &dx);
+    untested = dx and !VecNorm(dx, NORM_2, &norm) and !(norm > 0);
+  }
+  if (untested)
+    reason = SNES_DIVERGED_LINEAR_SOLVE;
   report.converged = reason > 0 and !error;
   report.reason = _stagnated ? "STAGNATED (residual down by less than "
                                    + std::to_string(_options.stagnation_reduction)
@@ -28,8 +42,13 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
     report.reason = "DIVERGED_LINEAR_SOLVE";
     report.linear_failure = describe_linear_failure(linear_solver(), error);
   }
+  else if (untested)
+    report.linear_failure = "it returned a zero direction, and the line search stopped "
+                            "at its initial point";
   else if (reason == SNES_DIVERGED_LINEAR_SOLVE)
     report.linear_failure = describe_linear_failure(linear_solver(), _linear_error);
+  if (!report.linear_failure.empty() and !_shell_failure.empty())
+    report.linear_failure += "; inner solve " + _shell_failure;
   if (!report.linear_failure.empty())
     report.reason += " (" + report.linear_failure + ")";
   if (!report.converged)

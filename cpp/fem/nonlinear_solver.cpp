@@ -415,6 +415,18 @@ NewtonReport NonlinearSolver::solve()
 {
   _non_finite = false;
   _stagnated = false;
+  _test_verdict = SNES_CONVERGED_ITERATING;
+  _shell_failure.clear();
+  // a shell preconditioner keeps its failure until it is cleared, and KSPSetUp then
+  // fails every later solve without applying it: a cut step starts clean
+  KSP outer;
+  SNESGetKSP(_snes, &outer);
+  for (KSP ksp : {outer, _inner})
+  {
+    PC pc;
+    if (ksp and !KSPGetPC(ksp, &pc))
+      PCSetFailedReason(pc, PC_NOERROR);
+  }
   _step_lengths.clear();
   if (_constraint)
     _constraint->restrict_to(*_problem.u()->x(), _x);

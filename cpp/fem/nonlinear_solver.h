@@ -346,6 +346,11 @@ private:
   double _matrix_norm = 0; ///< infinity norm of the last Jacobian (NaN: not finite)
   bool _non_finite = false;
   bool _stagnated = false;
+  /// the convergence test's verdict on the last iterate it saw: PETSc can stop a
+  /// solve as converged without asking it (the cp line search on a zero direction)
+  SNESConvergedReason _test_verdict = SNES_CONVERGED_ITERATING;
+  /// which inner solve of a shell preconditioner failed, and how (stop messages)
+  std::string _shell_failure;
   std::vector<double> _norms; ///< residual norms of the current solve
   std::vector<double> _step_lengths; ///< line-search lambdas of the current solve
 

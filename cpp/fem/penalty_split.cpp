@@ -32,6 +32,7 @@
 #include "../common/petsc_options.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
+#include "linear_failure.h"
 #include "saddle_parts.h"
 
 #include <algorithm>
@@ -393,13 +394,31 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
 {
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
+  // a shell keeps its failure until it is cleared; a failure reaches the Krylov
+  // method as Inf in z, written once z's parts are given back (declared before them)
+  PCSetFailedReason(pc, PC_NOERROR);
+  struct ReportFailure
+  {
+    PC pc;
+    Vec z;
+    ~ReportFailure()
+    {
+      PCFailedReason reason;
+      PCGetFailedReason(pc, &reason);
+      if (reason != PC_NOERROR)
+        fail_shell_apply(pc, z);
+    }
+  } report_failure{pc, z};
   auto soft_solve = [&](Vec b, Vec x)
   {
     KSPSolve(self->_soft, b, x);
     KSPConvergedReason reason;
     KSPGetConvergedReason(self->_soft, &reason);
-    if (reason < 0)
+    if (inner_solve_failed(reason))
+    {
       PCSetFailedReason(pc, PC_SUBPC_ERROR);
+      self->_shell_failure = "soft block: " + describe_linear_failure(self->_soft);
+    }
   };
   SaddleParts parts(r, z, self->_part_in, self->_part_out);
   const PetscScalar* rr = parts.x;

@@ -11,6 +11,7 @@
 #include "../material/material_point.h"
 #include "augmented_lagrangian.h"
 #include "constraint.h"
+#include "linear_failure.h"
 #include "p_multigrid.h"
 #include "rigid_body_modes.h"
 #include "saddle_parts.h"
@@ -365,6 +366,21 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   // (update_schur_preconditioner) and factored (q is small: two unknowns per
   // degree-1 node).  The kappa part is kept exactly and the pair is inf-sup
   // stable, so the count does not grow with kappa.
+  // an inner Krylov method makes the preconditioner change from one application to
+  // the next; right-preconditioned GMRES assumes it fixed and would report a
+  // residual its solution does not have
+  for (const char* inner : {"-fieldsplit_u_ksp_type", "-fieldsplit_q_ksp_type"})
+  {
+    const std::string type = string_option(inner);
+    const std::string outer = string_option("-ksp_type");
+    if (!type.empty() and type != "preonly" and type != "richardson" and type != "chebyshev"
+        and outer != "fgmres" and outer != "gcr")
+      throw InputError(std::string(inner) + " " + type
+                       + ": an inner Krylov method makes the Taylor-Hood preconditioner vary "
+                         "between applications; the outer one must be flexible: add "
+                         "-ksp_type fgmres (or gcr); this run has -ksp_type "
+                       + (outer.empty() ? "gmres (the default)" : outer));
+  }
   MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
   update_schur_preconditioner();
   if (_augmented or string_option("-fieldsplit_u_pc_type") == "mg")
@@ -527,14 +543,22 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
     MPI_Allreduce(MPI_IN_PLACE, &any_failed, 1, MPI_INT, MPI_LOR, comm);
     failed = any_failed;
   };
-  auto solve = [&failed](KSP ksp, Vec b, Vec x)
+  auto solve = [&failed, self](KSP ksp, Vec b, Vec x)
   {
     if (failed)
       return;
     KSPConvergedReason reason = KSP_DIVERGED_PC_FAILED;
-    if (!KSPSolve(ksp, b, x))
+    const PetscErrorCode error = KSPSolve(ksp, b, x);
+    if (!error)
       KSPGetConvergedReason(ksp, &reason);
-    failed = reason < 0;
+    failed = inner_solve_failed(reason);
+    if (failed)
+    {
+      const char* prefix = nullptr;
+      KSPGetOptionsPrefix(ksp, &prefix);
+      self->_shell_failure = std::string(prefix ? prefix : "") + ": "
+                             + describe_linear_failure(ksp, error);
+    }
   };
   {
     SaddleParts parts(r, z, self->_mix_u_in, self->_mix_u_out, self->_mix_q_in,
@@ -554,10 +578,7 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
   }
   agree();
   if (failed)
-  {
-    PCSetFailedReason(pc, PC_SUBPC_ERROR);
-    VecSet(z, 0.0);
-  }
+    fail_shell_apply(pc, z);
   return 0;
 }
 

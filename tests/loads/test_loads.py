@@ -223,6 +223,24 @@ def test_line_search_innocent_when_full_steps_fail(build, scratch):
     assert result.returncode == 0, result.stdout + result.stderr
 
 
+def test_line_search_zero_direction_is_no_convergence(build, scratch):
+    """A linear solver that returns a zero direction (Richardson scaled by 0, no norm to
+    test) while reporting success: cp finds dot(F, dx) = 0 and stops SNES as
+    CONVERGED_FNORM_ABS without asking the convergence test.  The step must not be
+    accepted at a residual of 5 mN (it was, with the tip at 0): the run stops, blames
+    the linear solve and writes no accepted step."""
+    out = os.path.join(scratch, "zero")
+    result = cantilever(build, out, [
+        "solver.linear=gmres-gamg", "solver.line_search=cp", "time.max_cutbacks=1",
+        "solver.petsc=-ksp_type richardson -ksp_richardson_scale 0 -ksp_max_it 1 "
+        "-ksp_norm_type none -pc_type none"])
+    message = result.stderr.strip()
+    assert result.returncode == 3, f"exit {result.returncode}: {message}"
+    assert "DIVERGED_LINEAR_SOLVE" in message and "zero direction" in message \
+        and "the linear solver failed" in message, message
+    assert series_rows(out) == [], series_rows(out)
+
+
 # ---------------------------------------------------------------------------
 # Taylor-Hood (Q2-Q1): the pressure an unknown of its own
 # ---------------------------------------------------------------------------
@@ -299,6 +317,51 @@ def test_taylor_hood_augmented_lagrangian_restores_the_block(build, scratch):
         per_newton[name] = (sum(r["linear_iterations"] for r in rows)
                             / sum(r["newton_iterations"] for r in rows))
     assert per_newton["augmented"] < 0.4 * per_newton["plain"], per_newton
+
+
+def test_taylor_hood_inexact_inner_solve(build, scratch):
+    """Three GMRES iterations on the augmented displacement block, under FGMRES: the
+    inner solve stops at its iteration limit (DIVERGED_ITS), which is an approximation
+    and no failure (it was taken for one, and this run stopped after its cutbacks).
+    The tip must be the direct solver's.  Under plain GMRES, which assumes a fixed preconditioner, the
+    inner Krylov method is refused, naming the way out."""
+    tips = []
+    for name, solver, petsc in (
+            ("lu", "lu", []),
+            ("inexact", "gmres-schur", ["solver.petsc=-al_gamma 1 -ksp_type fgmres "
+                                        "-fieldsplit_u_ksp_type gmres "
+                                        "-fieldsplit_u_ksp_max_it 3"])):
+        out = os.path.join(scratch, name)
+        result = muscle_run(build, CANTILEVER, out, QUIET + TAYLOR_HOOD + [
+            "time.end=0.2", f"solver.linear={solver}"] + petsc)
+        assert result.returncode == 0, result.stdout + result.stderr
+        tips.append(series_rows(out)[-1]["tip_z"])
+    assert abs(tips[1] - tips[0]) < 1e-7 * abs(tips[0]), tips
+    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "gmres"), QUIET + TAYLOR_HOOD + [
+        "time.end=0.2", "solver.linear=gmres-schur", "solver.petsc=-fieldsplit_u_ksp_type cg"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "-fieldsplit_u_ksp_type cg" in result.stderr \
+        and "-ksp_type fgmres" in result.stderr, result.stderr
+
+
+def test_taylor_hood_failed_inner_solve_cuts_the_step(build, scratch):
+    """An inner solve that truly fails (GMRES on the displacement block stopped by a
+    divergence tolerance it cannot meet) must fail the linear solve on every rank
+    and every cutback: the shell returns Inf, which the outer FGMRES reads as
+    DIVERGED_PC_FAILED (a zero return read as convergence), and its failure is
+    cleared before each cut step (it was kept, so the cutbacks failed without
+    trying).  The stop names the inner solve and how it failed, and keeps the
+    state at t = 0."""
+    out = os.path.join(scratch, "dtol")
+    result = muscle_run(build, CANTILEVER, out, QUIET + TAYLOR_HOOD + [
+        "time.end=0.2", "time.max_cutbacks=2", "solver.linear=gmres-schur",
+        "solver.petsc=-al_gamma 1 -ksp_type fgmres -fieldsplit_u_ksp_type gmres "
+        "-fieldsplit_u_ksp_divtol 1e-6 -fieldsplit_u_ksp_rtol 1e-12"], ranks=2)
+    message = result.stderr.strip()
+    assert result.returncode == 3, f"exit {result.returncode}: {message}"
+    assert "DIVERGED_PC_FAILED" in message \
+        and "inner solve fieldsplit_u_: gmres DIVERGED_DTOL" in message, message
+    assert series_rows(out) == [], series_rows(out)
 
 
 @pytest.mark.parametrize("petsc, names", [
