@@ -61,6 +61,41 @@ std::string failed_preconditioner(PC pc, const std::string& where)
 }
 } // namespace
 
+void clear_preconditioner_failures(KSP ksp)
+{
+  if (!ksp)
+    return;
+  PC pc;
+  KSPGetPC(ksp, &pc);
+  PCSetFailedReason(pc, PC_NOERROR);
+  const std::string type = type_of(pc);
+  // the nested solvers exist only after set-up; before it there is nothing to clear
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  if (type == PCFIELDSPLIT)
+  {
+    PetscInt n = 0;
+    KSP* sub = nullptr;
+    if (!PCFieldSplitGetSubKSP(pc, &n, &sub))
+    {
+      for (PetscInt i = 0; i < n; ++i)
+        clear_preconditioner_failures(sub[i]);
+      PetscFree(sub);
+    }
+  }
+  else if (type == PCMG or type == PCGAMG)
+  {
+    PetscInt levels = 0;
+    PCMGGetLevels(pc, &levels);
+    for (PetscInt l = 0; l < levels; ++l)
+    {
+      KSP smoother = nullptr;
+      if (!PCMGGetSmoother(pc, l, &smoother))
+        clear_preconditioner_failures(smoother);
+    }
+  }
+  PetscPopErrorHandler();
+}
+
 void fail_shell_apply(PC pc, Vec z)
 {
   PCSetFailedReason(pc, PC_SUBPC_ERROR);

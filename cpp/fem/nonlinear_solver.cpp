@@ -5,6 +5,7 @@
 #include "augmented_lagrangian.h"
 #include "constraint.h"
 #include "fbar_unknowns.h"
+#include "linear_failure.h"
 #include "p_multigrid.h"
 #include "rigid_body_modes.h"
 
@@ -417,16 +418,12 @@ NewtonReport NonlinearSolver::solve()
   _stagnated = false;
   _test_verdict = SNES_CONVERGED_ITERATING;
   _shell_failure.clear();
-  // a shell preconditioner keeps its failure until it is cleared, and KSPSetUp then
-  // fails every later solve without applying it: a cut step starts clean
+  // a failed preconditioner keeps its failure, and KSPSetUp then fails every later
+  // solve without applying it: a cut step starts clean (the shells' own solvers too)
   KSP outer;
   SNESGetKSP(_snes, &outer);
-  for (KSP ksp : {outer, _inner})
-  {
-    PC pc;
-    if (ksp and !KSPGetPC(ksp, &pc))
-      PCSetFailedReason(pc, PC_NOERROR);
-  }
+  for (KSP ksp : {outer, _inner, _u_ksp, _q_ksp, _soft, _schur})
+    clear_preconditioner_failures(ksp);
   _step_lengths.clear();
   if (_constraint)
     _constraint->restrict_to(*_problem.u()->x(), _x);
