@@ -47,4 +47,17 @@ void choice_option(const char* name, std::initializer_list<const char*> allowed,
   throw InputError(std::string(name) + " " + given_value + ": allowed are " + list);
 }
 
+void require_flexible_outer(const char* inner, const std::string& what)
+{
+  const std::string type = string_option(inner);
+  const std::string outer = string_option("-ksp_type");
+  if (type.empty() or type == "preonly" or type == "richardson" or type == "chebyshev"
+      or outer == "fgmres" or outer == "gcr")
+    return;
+  throw InputError(std::string(inner) + " " + type + ": an inner Krylov method makes the "
+                   + what + " vary between applications; the outer one must be flexible: "
+                   "add -ksp_type fgmres (or gcr); this run has -ksp_type "
+                   + (outer.empty() ? "gmres (the default)" : outer));
+}
+
 } // namespace muscle

@@ -22,4 +22,10 @@ std::string string_option(const char* name);
 void choice_option(const char* name, std::initializer_list<const char*> allowed,
                    std::string& value);
 
+/// An inner Krylov method (option `inner`: a -*_ksp_type other than preonly,
+/// richardson or chebyshev) makes preconditioner `what` vary between applications;
+/// right-preconditioned GMRES assumes it fixed and would report a residual its
+/// solution does not have.  InputError unless -ksp_type is flexible (fgmres, gcr).
+void require_flexible_outer(const char* inner, const std::string& what);
+
 } // namespace muscle

@@ -102,13 +102,13 @@ void NonlinearSolver::first_full_step()
   SNESGetConvergedReason(_snes, &reason);
   SNESLineSearchSetType(ls, previous.c_str());
   SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0, _options.max_iterations, 10000);
-  if (error or reason == SNES_DIVERGED_FUNCTION_DOMAIN or _non_finite)
-  {
+  // a failed linear solve took no step; its failure must not fail the solve after it
+  if (error or reason == SNES_DIVERGED_FUNCTION_DOMAIN
+      or reason == SNES_DIVERGED_LINEAR_SOLVE or _non_finite)
     VecCopy(start, _x_ext);
-    _non_finite = false;
-  }
   else
     _full_steps = 1;
+  start_clean();
   VecDestroy(&start);
 }
 
@@ -212,9 +212,6 @@ PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
 {
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
-  // PETSc keeps a shell PC's failure until it is cleared: one failed inner
-  // solve would otherwise fail every later Newton step (and every cutback)
-  PCSetFailedReason(pc, PC_NOERROR);
   const PetscScalar* bb;
   VecGetArrayRead(b_ext, &bb);
   Blocks B = self->blocks(const_cast<double*>(bb));

@@ -412,7 +412,7 @@ std::pair<double, std::int32_t> NonlinearSolver::min_jacobian_determinant() cons
   return worst;
 }
 
-NewtonReport NonlinearSolver::solve()
+void NonlinearSolver::start_clean()
 {
   _non_finite = false;
   _stagnated = false;
@@ -424,6 +424,11 @@ NewtonReport NonlinearSolver::solve()
   SNESGetKSP(_snes, &outer);
   for (KSP ksp : {outer, _inner, _u_ksp, _q_ksp, _soft, _schur})
     clear_preconditioner_failures(ksp);
+}
+
+NewtonReport NonlinearSolver::solve()
+{
+  start_clean();
   _step_lengths.clear();
   if (_constraint)
     _constraint->restrict_to(*_problem.u()->x(), _x);

@@ -202,6 +202,9 @@ private:
   /// |u| of the SNES iterate's displacement block
   double displacement_norm(SNES snes) const;
 
+  /// Forget the last solve's failures (flags, messages, failed preconditioners)
+  void start_clean();
+
   // newton_report.cpp: what a solve did, and why it failed
   NewtonReport outcome(PetscErrorCode error, long inner_iterations_before) const;
 

@@ -115,6 +115,7 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
   KSPGetPC(_soft, &pc);
   PCSetType(pc, PCGAMG);
   KSPSetFromOptions(_soft);
+  require_flexible_outer("-soft_ksp_type", "penalty split");
   VecDuplicate(_rhs, &_soft_r);
 
   PetscInt nu, nq = 0;
@@ -394,9 +395,8 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
 {
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
-  // a shell keeps its failure until it is cleared; a failure reaches the Krylov
-  // method as Inf in z, written once z's parts are given back (declared before them)
-  PCSetFailedReason(pc, PC_NOERROR);
+  // a failure reaches the Krylov method as Inf in z, written once z's parts are
+  // given back (declared before them); solve() clears it before the next solve
   struct ReportFailure
   {
     PC pc;

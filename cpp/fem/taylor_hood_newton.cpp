@@ -366,21 +366,8 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   // (update_schur_preconditioner) and factored (q is small: two unknowns per
   // degree-1 node).  The kappa part is kept exactly and the pair is inf-sup
   // stable, so the count does not grow with kappa.
-  // an inner Krylov method makes the preconditioner change from one application to
-  // the next; right-preconditioned GMRES assumes it fixed and would report a
-  // residual its solution does not have
   for (const char* inner : {"-fieldsplit_u_ksp_type", "-fieldsplit_q_ksp_type"})
-  {
-    const std::string type = string_option(inner);
-    const std::string outer = string_option("-ksp_type");
-    if (!type.empty() and type != "preonly" and type != "richardson" and type != "chebyshev"
-        and outer != "fgmres" and outer != "gcr")
-      throw InputError(std::string(inner) + " " + type
-                       + ": an inner Krylov method makes the Taylor-Hood preconditioner vary "
-                         "between applications; the outer one must be flexible: add "
-                         "-ksp_type fgmres (or gcr); this run has -ksp_type "
-                       + (outer.empty() ? "gmres (the default)" : outer));
-  }
+    require_flexible_outer(inner, "Taylor-Hood preconditioner");
   MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
   update_schur_preconditioner();
   if (_augmented or string_option("-fieldsplit_u_pc_type") == "mg")
@@ -510,19 +497,14 @@ void NonlinearSolver::update_mixed_shell()
   if (!_coarsening)
     MatSetNearNullSpace(op, _near_null_space);
   KSPSetOperators(_u_ksp, op, op);
-  PC u_pc;
-  KSPGetPC(_u_ksp, &u_pc);
-  // PCMG and GAMG keep a failure until it is cleared: a new Jacobian starts clean
-  PCSetFailedReason(u_pc, PC_NOERROR);
   if (!_coarsening)
     return;
   Mat coarse_matrix = _coarsening->coarse_matrix(op);
+  PC u_pc;
+  KSPGetPC(_u_ksp, &u_pc);
   KSP coarse;
   PCMGGetCoarseSolve(u_pc, &coarse);
   KSPSetOperators(coarse, coarse_matrix, coarse_matrix);
-  PC amg;
-  KSPGetPC(coarse, &amg);
-  PCSetFailedReason(amg, PC_NOERROR);
 }
 
 PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
@@ -531,9 +513,8 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
   // augmented Lagrangian A_gamma and its share of the constraint rows in r_u
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
-  // as condensed_solve: a failed inner solve (or a PETSc error in it) fails this
-  // linear solve, and the failure is cleared before the next one
-  PCSetFailedReason(pc, PC_NOERROR);
+  // a failed inner solve (or a PETSc error in it) fails this linear solve;
+  // solve() clears the failure before the next one
   bool failed = false;
   // a product's or a solve's PETSc error can be one rank's alone: every rank must
   // take the same path into the collective u-solve and out of this apply

@@ -64,7 +64,10 @@ CubeLoadCase::CubeLoadCase(const ParameterSet& parameters, MuscleState state,
                            LoadCase load_case, CubeOptions options)
     : _case(load_case), _options(std::move(options))
 {
-  const int n = _options.cells_per_side;
+  if (_options.cells_per_side < 1)
+    throw InputError("cells_per_side must be at least 1, got "
+                     + std::to_string(_options.cells_per_side));
+  const auto n = static_cast<std::size_t>(_options.cells_per_side);
   if (load_case == LoadCase::SAF and n != 1)
     throw InputError("SAF is defined on a single element (cells_per_side = 1)");
   auto mesh = std::make_shared<mesh::Mesh>(mesh::create_box(

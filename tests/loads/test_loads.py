@@ -323,8 +323,9 @@ def test_taylor_hood_inexact_inner_solve(build, scratch):
     """Three GMRES iterations on the augmented displacement block, under FGMRES: the
     inner solve stops at its iteration limit (DIVERGED_ITS), which is an approximation
     and no failure (it was taken for one, and this run stopped after its cutbacks).
-    The tip must be the direct solver's.  Under plain GMRES, which assumes a fixed preconditioner, the
-    inner Krylov method is refused, naming the way out."""
+    The tip must be the direct solver's.  Under plain GMRES, which assumes a fixed
+    preconditioner, an inner Krylov method is refused, naming the way out (also in the
+    F-bar penalty split, whose soft block took one silently)."""
     tips = []
     for name, solver, petsc in (
             ("lu", "lu", []),
@@ -341,6 +342,13 @@ def test_taylor_hood_inexact_inner_solve(build, scratch):
         "time.end=0.2", "solver.linear=gmres-schur", "solver.petsc=-fieldsplit_u_ksp_type cg"])
     assert result.returncode == 2, result.stdout + result.stderr
     assert "-fieldsplit_u_ksp_type cg" in result.stderr \
+        and "-ksp_type fgmres" in result.stderr, result.stderr
+    # the F-bar penalty split's soft block, the same way
+    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "soft"), QUIET + [
+        "element.degree=1", "time.end=0.2", "solver.linear=gmres-schur",
+        "solver.petsc=-soft_ksp_type cg"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "-soft_ksp_type cg" in result.stderr and "penalty split" in result.stderr \
         and "-ksp_type fgmres" in result.stderr, result.stderr
 
 
