@@ -248,7 +248,11 @@ PetscErrorCode NonlinearSolver::condensed_solve(PC pc, Vec b_ext, Vec y_ext)
   self->_linear_error = error;
   if (!error)
     KSPGetConvergedReason(self->_inner, &reason);
-  if (reason < 0)
+  // an error can be one rank's alone, and the recovery below is collective
+  int failed = reason < 0;
+  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_LOR,
+                PetscObjectComm(reinterpret_cast<PetscObject>(pc)));
+  if (failed)
   {
     VecRestoreArrayRead(b_ext, &bb);
     fail_shell_apply(pc, y_ext);

@@ -546,6 +546,7 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
                       self->_mix_q_out);
     PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
     solve(self->_q_ksp, self->_mix_q_in, self->_mix_q_out);
+    agree(); // the product is collective
     if (!failed)
       failed = MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs)
                or VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in)
