@@ -223,6 +223,22 @@ def test_line_search_innocent_when_full_steps_fail(build, scratch):
     assert result.returncode == 0, result.stdout + result.stderr
 
 
+def test_line_search_failed_full_step_is_no_iteration(build, scratch):
+    """F-bar's three-field Newton first takes one full step when a boundary value moved
+    (fbar_newton.cpp, first_full_step).  When that step's linear solve fails (GMRES
+    stopped after one iteration) no step was taken: it must not count as a Newton
+    iteration (it counted one per attempt)."""
+    result = muscle_run(build, os.path.join(HERE, "..", "..", "demos", "scenes",
+                                            "fusiform_passive_stretch.yaml"), scratch,
+                        QUIET + ["time.max_cutbacks=1", "solver.line_search=bt",
+                                 "solver.linear=gmres-gamg",
+                                 "solver.petsc=-ksp_max_it 1"])
+    message = result.stderr.strip()
+    assert result.returncode == 3, f"exit {result.returncode}: {message}"
+    assert "gmres DIVERGED_ITS after 1 iterations" in message \
+        and "cutbacks, 0 Newton iterations" in message, message
+
+
 def test_line_search_zero_direction_is_no_convergence(build, scratch):
     """A linear solver that returns a zero direction (Richardson scaled by 0, no norm to
     test) while reporting success: cp finds dot(F, dx) = 0 and stops SNES as
