@@ -91,7 +91,21 @@ void clear_preconditioner_failures(KSP ksp)
       KSP smoother = nullptr;
       if (!PCMGGetSmoother(pc, l, &smoother))
         clear_preconditioner_failures(smoother);
+      // a distinct up-smoother, if any (the same object otherwise)
+      if (l > 0 and !PCMGGetSmootherUp(pc, l, &smoother))
+        clear_preconditioner_failures(smoother);
     }
+  }
+  else if (type == PCBJACOBI or type == PCASM)
+  {
+    // GAMG's coarse solve is block Jacobi with LU, kept across Jacobians
+    PetscInt blocks = 0, first = 0;
+    KSP* sub = nullptr;
+    const PetscErrorCode error = type == PCBJACOBI
+                                     ? PCBJacobiGetSubKSP(pc, &blocks, &first, &sub)
+                                     : PCASMGetSubKSP(pc, &blocks, &first, &sub);
+    for (PetscInt b = 0; !error and b < blocks; ++b)
+      clear_preconditioner_failures(sub[b]);
   }
   PetscPopErrorHandler();
 }

@@ -24,6 +24,9 @@ namespace muscle
 {
 namespace
 {
+// a restart throws the Krylov space away and slows the convergence
+constexpr PetscInt gmres_restart = 200;
+
 /// PETSc errors return their code instead of printing a trace, for a scope
 /// (exception-safe: a callback may throw through SNESSolve).
 struct QuietPetscErrors
@@ -153,6 +156,14 @@ NonlinearSolver::NonlinearSolver(
     PCShellSetApply(pc, condensed_solve);
     PCShellSetName(pc, "F-bar cell unknowns eliminated around the condensed solve");
   }
+  // -ksp_type fgmres replaces GMRES after configure_linear_solver set its restart:
+  // keep the long restart unless the user gave one
+  KSP linear = three_field ? _inner : ksp;
+  PetscBool flexible = PETSC_FALSE, restart_given = PETSC_FALSE;
+  PetscObjectTypeCompare(reinterpret_cast<PetscObject>(linear), KSPFGMRES, &flexible);
+  PetscOptionsHasName(nullptr, nullptr, "-ksp_gmres_restart", &restart_given);
+  if (flexible and !restart_given)
+    KSPGMRESSetRestart(linear, gmres_restart);
 }
 
 void NonlinearSolver::read_al_gamma(bool taylor_hood)
@@ -198,7 +209,7 @@ void NonlinearSolver::configure_linear_solver(KSP linear)
   {
     KSPSetType(linear, KSPGMRES);
     KSPSetTolerances(linear, _options.linear_rtol, 1e-14, PETSC_DEFAULT, 2000);
-    KSPGMRESSetRestart(linear, 200);
+    KSPGMRESSetRestart(linear, gmres_restart);
     if (_options.linear_solver == "gmres-schur" and _taylor_hood)
     {
       configure_mixed_split(pc);
@@ -418,6 +429,7 @@ void NonlinearSolver::start_clean()
   _stagnated = false;
   _test_verdict = SNES_CONVERGED_ITERATING;
   _shell_failure.clear();
+  _linear_error = 0;
   // a failed preconditioner keeps its failure, and KSPSetUp then fails every later
   // solve without applying it: a cut step starts clean (the shells' own solvers too)
   KSP outer;
@@ -435,7 +447,6 @@ NewtonReport NonlinearSolver::solve()
   else
     VecCopy(_u_petsc, _x);
   const long inner_before = _inner_iterations;
-  _linear_error = 0;
   // a PETSc error inside the solve (SOR's "Zero diagonal", a failed
   // factorisation) fails this solve with PETSc's message: the stepper cuts the
   // step and, in the end, stops with advice -- no trace on the console

@@ -295,7 +295,8 @@ private:
   /// _schur_factor and _schur_sym from the split and d = diag(A_s) (full layout, ghosts)
   void update_sparse_schur(std::span<const double> d);
   /// q <- S^-1 q, approximately (one V-cycle by default; q: the cells' part, local) with
-  /// S = I + D_r B diag(A_s)^-1 B^T; false if the solve of I + C C^T failed
+  /// S = I + D_r B diag(A_s)^-1 B^T; false (and _shell_failure) if the solve of
+  /// I + C C^T failed (stopped at its iteration limit is an approximation)
   bool sparse_schur_solve(PetscScalar* q);
   Mat _saddle = nullptr;   ///< (du, q) -> (A_s du + B^T q, D_r B du - q), shell
   Vec _saddle_b = nullptr, _saddle_x = nullptr;

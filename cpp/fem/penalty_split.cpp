@@ -138,6 +138,7 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
     KSPGetPC(_schur, &pc);
     PCSetType(pc, PCGAMG);
     KSPSetFromOptions(_schur);
+    require_flexible_outer("-schur_ksp_type", "penalty split");
     VecCreateMPI(comm, nq, PETSC_DETERMINE, &_schur_rhs);
     VecDuplicate(_schur_rhs, &_schur_w);
   }
@@ -323,9 +324,15 @@ bool NonlinearSolver::sparse_schur_solve(PetscScalar* q)
     return 0.0;
   });
   VecRestoreArray(_schur_rhs, &rhs);
-  KSPSolve(_schur, _schur_rhs, _schur_w);
-  KSPConvergedReason reason;
-  KSPGetConvergedReason(_schur, &reason);
+  const PetscErrorCode error = KSPSolve(_schur, _schur_rhs, _schur_w);
+  KSPConvergedReason reason = KSP_DIVERGED_PC_FAILED;
+  if (!error)
+    KSPGetConvergedReason(_schur, &reason);
+  if (inner_solve_failed(reason))
+  {
+    _shell_failure = "sparse Schur: " + describe_linear_failure(_schur, error);
+    return false;
+  }
   const PetscScalar* x;
   VecGetArrayRead(_schur_w, &x);
   PetscInt k = 0;
@@ -336,7 +343,7 @@ bool NonlinearSolver::sparse_schur_solve(PetscScalar* q)
       ++k;
     }
   VecRestoreArrayRead(_schur_w, &x);
-  return reason >= 0;
+  return true;
 }
 
 int NonlinearSolver::saddle_solve()
@@ -396,28 +403,28 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
   // a failure reaches the Krylov method as Inf in z, written once z's parts are
-  // given back (declared before them); solve() clears it before the next solve
+  // given back (declared before them)
   struct ReportFailure
   {
     PC pc;
     Vec z;
+    bool failed = false;
     ~ReportFailure()
     {
-      PCFailedReason reason;
-      PCGetFailedReason(pc, &reason);
-      if (reason != PC_NOERROR)
+      if (failed)
         fail_shell_apply(pc, z);
     }
-  } report_failure{pc, z};
+  } report{pc, z};
   auto soft_solve = [&](Vec b, Vec x)
   {
-    KSPSolve(self->_soft, b, x);
-    KSPConvergedReason reason;
-    KSPGetConvergedReason(self->_soft, &reason);
+    const PetscErrorCode error = KSPSolve(self->_soft, b, x);
+    KSPConvergedReason reason = KSP_DIVERGED_PC_FAILED;
+    if (!error)
+      KSPGetConvergedReason(self->_soft, &reason);
     if (inner_solve_failed(reason))
     {
-      PCSetFailedReason(pc, PC_SUBPC_ERROR);
-      self->_shell_failure = "soft block: " + describe_linear_failure(self->_soft);
+      report.failed = true;
+      self->_shell_failure = "soft block: " + describe_linear_failure(self->_soft, error);
     }
   };
   SaddleParts parts(r, z, self->_part_in, self->_part_out);
@@ -437,7 +444,7 @@ PetscErrorCode NonlinearSolver::penalty_split_apply(PC pc, Vec r, Vec z)
     if (self->_split_schur == "sparse")
     {
       if (!self->sparse_schur_solve(q))
-        PCSetFailedReason(pc, PC_SUBPC_ERROR);
+        report.failed = true;
       return;
     }
     PetscInt k = 0;

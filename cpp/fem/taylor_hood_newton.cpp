@@ -513,8 +513,8 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
   // augmented Lagrangian A_gamma and its share of the constraint rows in r_u
   NonlinearSolver* self;
   PCShellGetContext(pc, &self);
-  // a failed inner solve (or a PETSc error in it) fails this linear solve;
-  // solve() clears the failure before the next one
+  // a failed inner solve (or a PETSc error in it) fails this linear solve and so
+  // ends the Newton solve; start_clean() clears the failure before the next one
   bool failed = false;
   // a product's or a solve's PETSc error can be one rank's alone: every rank must
   // take the same path into the collective u-solve and out of this apply

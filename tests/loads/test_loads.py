@@ -366,6 +366,11 @@ def test_taylor_hood_inexact_inner_solve(build, scratch):
     assert result.returncode == 2, result.stdout + result.stderr
     assert "-soft_ksp_type cg" in result.stderr and "penalty split" in result.stderr \
         and "-ksp_type fgmres" in result.stderr, result.stderr
+    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "schur"), QUIET + [
+        "element.degree=1", "time.end=0.2", "solver.linear=gmres-schur",
+        "solver.petsc=-penalty_split_schur sparse -schur_ksp_type gmres"])
+    assert result.returncode == 2 and "-schur_ksp_type gmres" in result.stderr, \
+        result.stdout + result.stderr
 
 
 def test_taylor_hood_failed_inner_solve_cuts_the_step(build, scratch):
