@@ -22,9 +22,10 @@ std::string describe_linear_failure(KSP ksp, PetscErrorCode error = 0);
 void fail_shell_apply(PC pc, Vec z);
 
 /// Clears the failure of `ksp`'s preconditioner and of those nested in it (field
-/// split blocks, multigrid smoothers and coarse solves). PETSc 3.18's shells, PCMG
-/// and GAMG only ever set a failure, and KSPSetUp then fails every later solve
-/// without applying them: a cut step must start clean. `ksp` may be null.
+/// split blocks, multigrid smoothers and coarse solves, block-Jacobi and ASM
+/// blocks). PETSc 3.18's shells, PCMG and GAMG only ever set a failure, and
+/// KSPSetUp then fails every later solve without applying them: a cut step must
+/// start clean. `ksp` may be null.
 void clear_preconditioner_failures(KSP ksp);
 
 /// Whether an inner solve of a shell preconditioner failed. A Krylov method
