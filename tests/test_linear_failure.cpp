@@ -2,7 +2,8 @@
 // for multigrid the level whose smoother met a zero pivot, with the advice
 // that fits (the direct solver or the shifted smoother, not a smaller step).
 // The failures are built on purpose: a saddle-point matrix, whose zero
-// diagonal stops SOR, and a singular one, which stops LU.
+// diagonal stops SOR, and a singular one, which stops LU, alone or inside a
+// field split.
 #include <fem/linear_failure.h>
 
 #include <functional>
@@ -140,4 +141,50 @@ TEST(LinearFailure, ConvergedSolveHasNoDescription)
   const Solve s = solve(laplacian(50), direct);
   EXPECT_GT(s.reason, 0);
   EXPECT_TRUE(s.description.empty()) << s.description;
+}
+
+TEST(LinearFailure, FailureInsideAFieldSplitIsNamedWithItsPath)
+{
+  // [[0, 0], [0, L]] split into its two halves, each factored: the first half's
+  // LU meets a zero pivot, two levels below the outer GMRES (the Taylor-Hood
+  // split's GAMG sits there).  Its own name must reach the message, not only the
+  // split's SUBPC_ERROR.
+  const PetscInt n = 20;
+  Mat A;
+  MatCreateSeqAIJ(PETSC_COMM_SELF, 2 * n, 2 * n, 3, nullptr, &A);
+  for (PetscInt i = 0; i < n; ++i)
+  {
+    MatSetValue(A, i, i, 0.0, INSERT_VALUES);
+    MatSetValue(A, n + i, n + i, 2.0, INSERT_VALUES);
+    if (i > 0)
+      MatSetValue(A, n + i, n + i - 1, -1.0, INSERT_VALUES);
+    if (i + 1 < n)
+      MatSetValue(A, n + i, n + i + 1, -1.0, INSERT_VALUES);
+  }
+  MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
+  PetscOptionsSetValue(nullptr, "-split_fieldsplit_u_pc_type", "lu");
+  PetscOptionsSetValue(nullptr, "-split_fieldsplit_q_pc_type", "lu");
+  const Solve s = solve(A,
+                        [n](KSP ksp, PC pc)
+                        {
+                          KSPSetOptionsPrefix(ksp, "split_");
+                          KSPSetType(ksp, KSPGMRES);
+                          PCSetType(pc, PCFIELDSPLIT);
+                          IS u, q;
+                          ISCreateStride(PETSC_COMM_SELF, n, 0, 1, &u);
+                          ISCreateStride(PETSC_COMM_SELF, n, n, 1, &q);
+                          PCFieldSplitSetIS(pc, "u", u);
+                          PCFieldSplitSetIS(pc, "q", q);
+                          ISDestroy(&u);
+                          ISDestroy(&q);
+                          KSPSetFromOptions(ksp);
+                        });
+  PetscOptionsClearValue(nullptr, "-split_fieldsplit_u_pc_type");
+  PetscOptionsClearValue(nullptr, "-split_fieldsplit_q_pc_type");
+  ASSERT_TRUE(s.error != 0 or s.reason < 0) << "the split did not fail";
+  EXPECT_NE(s.description.find("field split u (lu): FACTOR_"), std::string::npos)
+      << s.description;
+  EXPECT_EQ(s.description.find("field split q"), std::string::npos) << s.description;
+  std::printf("%s\n", s.description.c_str());
 }

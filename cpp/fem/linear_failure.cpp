@@ -1,5 +1,8 @@
 #include "linear_failure.h"
 
+#include <utility>
+#include <vector>
+
 namespace muscle
 {
 namespace
@@ -11,47 +14,80 @@ std::string type_of(PC pc)
   return type ? type : "none";
 }
 
-/// The first failed preconditioner below `pc` (itself, a multigrid level, a
-/// block-Jacobi block), as "where: REASON"; empty if none reports a failure.
-std::string failed_preconditioner(PC pc, const std::string& where)
+/// A field split block's name from its solver's option prefix
+/// ("fieldsplit_u_" -> "u").
+std::string split_name(KSP ksp, PetscInt i)
 {
+  const char* prefix = nullptr;
+  KSPGetOptionsPrefix(ksp, &prefix);
+  std::string name = prefix ? prefix : "";
+  if (const std::size_t at = name.rfind("fieldsplit_"); at != std::string::npos)
+    name = name.substr(at + 11);
+  if (!name.empty() and name.back() == '_')
+    name.pop_back();
+  return name.empty() ? std::to_string(i) : name;
+}
+
+/// The solvers nested directly in `pc` (field split blocks, multigrid smoothers
+/// and coarse solves, block-Jacobi and ASM blocks), each with where it sits.
+/// They exist only after set-up: before it, none.
+std::vector<std::pair<KSP, std::string>> nested_solvers(PC pc, const std::string& where)
+{
+  std::vector<std::pair<KSP, std::string>> nested;
   const std::string type = type_of(pc);
-  if (type == PCMG or type == PCGAMG)
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  if (type == PCFIELDSPLIT)
+  {
+    PetscInt n = 0;
+    KSP* sub = nullptr;
+    if (!PCFieldSplitGetSubKSP(pc, &n, &sub))
+    {
+      for (PetscInt i = 0; i < n; ++i)
+        nested.emplace_back(sub[i], where + ", field split " + split_name(sub[i], i));
+      PetscFree(sub);
+    }
+  }
+  else if (type == PCMG or type == PCGAMG)
   {
     PetscInt levels = 0;
     PCMGGetLevels(pc, &levels);
     for (PetscInt l = 0; l < levels; ++l)
     {
+      const std::string level = where + ", multigrid level " + std::to_string(l);
+      // not PCMGGetSmootherUp: it would make a distinct up-smoother (without
+      // vertex stars, and with its own eigenvalue estimate); none is made here
       KSP smoother = nullptr;
-      PCMGGetSmoother(pc, l, &smoother);
-      if (!smoother)
-        continue;
-      PC level_pc;
-      KSPGetPC(smoother, &level_pc);
-      const std::string name = "multigrid level " + std::to_string(l)
-                               + (l == 0 ? " (coarse solve, " : " (smoother, ")
-                               + type_of(level_pc) + ")";
-      if (std::string found = failed_preconditioner(level_pc, name); !found.empty())
-        return found;
+      if (!PCMGGetSmoother(pc, l, &smoother) and smoother)
+        nested.emplace_back(smoother, level + (l == 0 ? " coarse solve" : " smoother"));
     }
   }
-  else if (type == PCBJACOBI)
+  else if (type == PCBJACOBI or type == PCASM)
   {
+    // GAMG's coarse solve is block Jacobi with LU, kept across Jacobians
     PetscInt blocks = 0, first = 0;
     KSP* sub = nullptr;
-    // only after set-up; a failure before it is the block's own
-    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-    const PetscErrorCode error = PCBJacobiGetSubKSP(pc, &blocks, &first, &sub);
-    PetscPopErrorHandler();
-    for (PetscInt b = 0; !error and b < blocks; ++b)
-    {
-      PC block_pc;
-      KSPGetPC(sub[b], &block_pc);
-      if (std::string found = failed_preconditioner(block_pc, where + ", block "
-                                                                  + type_of(block_pc));
-          !found.empty())
-        return found;
-    }
+    const PetscErrorCode error = type == PCBJACOBI
+                                     ? PCBJacobiGetSubKSP(pc, &blocks, &first, &sub)
+                                     : PCASMGetSubKSP(pc, &blocks, &first, &sub);
+    // PCASM hands out its block count before set-up, but no solvers yet
+    for (PetscInt b = 0; !error and sub and b < blocks; ++b)
+      nested.emplace_back(sub[b], where + ", block");
+  }
+  PetscPopErrorHandler();
+  return nested;
+}
+
+/// The first failed preconditioner in or below `pc`, innermost first, as
+/// "where (type): REASON"; empty if none reports a failure.
+std::string failed_preconditioner(PC pc, const std::string& where)
+{
+  for (const auto& [ksp, name] : nested_solvers(pc, where))
+  {
+    PC sub;
+    KSPGetPC(ksp, &sub);
+    if (std::string found = failed_preconditioner(sub, name + " (" + type_of(sub) + ")");
+        !found.empty())
+      return found;
   }
   PCFailedReason reason = PC_NOERROR;
   PCGetFailedReason(pc, &reason);
@@ -68,46 +104,8 @@ void clear_preconditioner_failures(KSP ksp)
   PC pc;
   KSPGetPC(ksp, &pc);
   PCSetFailedReason(pc, PC_NOERROR);
-  const std::string type = type_of(pc);
-  // the nested solvers exist only after set-up; before it there is nothing to clear
-  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-  if (type == PCFIELDSPLIT)
-  {
-    PetscInt n = 0;
-    KSP* sub = nullptr;
-    if (!PCFieldSplitGetSubKSP(pc, &n, &sub))
-    {
-      for (PetscInt i = 0; i < n; ++i)
-        clear_preconditioner_failures(sub[i]);
-      PetscFree(sub);
-    }
-  }
-  else if (type == PCMG or type == PCGAMG)
-  {
-    PetscInt levels = 0;
-    PCMGGetLevels(pc, &levels);
-    for (PetscInt l = 0; l < levels; ++l)
-    {
-      KSP smoother = nullptr;
-      if (!PCMGGetSmoother(pc, l, &smoother))
-        clear_preconditioner_failures(smoother);
-      // a distinct up-smoother, if any (the same object otherwise)
-      if (l > 0 and !PCMGGetSmootherUp(pc, l, &smoother))
-        clear_preconditioner_failures(smoother);
-    }
-  }
-  else if (type == PCBJACOBI or type == PCASM)
-  {
-    // GAMG's coarse solve is block Jacobi with LU, kept across Jacobians
-    PetscInt blocks = 0, first = 0;
-    KSP* sub = nullptr;
-    const PetscErrorCode error = type == PCBJACOBI
-                                     ? PCBJacobiGetSubKSP(pc, &blocks, &first, &sub)
-                                     : PCASMGetSubKSP(pc, &blocks, &first, &sub);
-    for (PetscInt b = 0; !error and b < blocks; ++b)
-      clear_preconditioner_failures(sub[b]);
-  }
-  PetscPopErrorHandler();
+  for (const auto& nested : nested_solvers(pc, ""))
+    clear_preconditioner_failures(nested.first);
 }
 
 void fail_shell_apply(PC pc, Vec z)

@@ -7,11 +7,12 @@ namespace muscle
 {
 
 /// Why a linear solve failed, in words a stop message can carry: the Krylov
-/// method's reason and, for multigrid, the level whose smoother or coarse solve
-/// failed and how ("multigrid level 0 (coarse): FACTOR_NUMERIC_ZEROPIVOT");
-/// or, when KSPSolve returned the PETSc error `error` (SOR stops with "Zero
-/// diagonal on row N" as an error, not as a failed reason), PETSc's message.
-/// Empty when `ksp` did not fail.
+/// method's reason and the innermost preconditioner that failed, with the path
+/// to it through field split blocks, multigrid levels and block-Jacobi/ASM
+/// blocks ("gamg, multigrid level 0 coarse solve (bjacobi), block (lu):
+/// FACTOR_NUMERIC_ZEROPIVOT"); or, when KSPSolve returned the PETSc error
+/// `error` (SOR stops with "Zero diagonal on row N" as an error, not as a failed
+/// reason), PETSc's message.  Empty when `ksp` did not fail.
 std::string describe_linear_failure(KSP ksp, PetscErrorCode error = 0);
 
 /// Fails a shell preconditioner's apply so that every Krylov method sees it: the
