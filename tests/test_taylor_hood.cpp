@@ -5,12 +5,14 @@
 // quadrature-point kernel, both read the fibre stretch at F_bar).  And p-multigrid's
 // prolongation: a trilinear field is a degree-1 function, so interpolating its
 // degree-1 values into the degree-2 space must give its degree-2 values.  And the
-// augmented-Lagrangian blocks against the same algebra done densely (Eigen).
+// augmented-Lagrangian blocks against the same algebra done densely (Eigen).  And
+// the vertex-star patches against their geometric definition.
 #include "support/finite_differences.h"
 
 #include <fem/augmented_lagrangian.h>
 #include <fem/muscle_problem.h>
 #include <fem/p_multigrid.h>
+#include <fem/vertex_star.h>
 #include <material/parameters.h>
 
 #include <Eigen/Dense>
@@ -235,6 +237,97 @@ TEST(DegreeOneCoarsening, ProlongsDegreeOneFieldsExactly)
   MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
   EXPECT_GT(largest, 1.0);
   EXPECT_LT(worst, 1e-13 * largest);
+}
+
+TEST(VertexStar, PatchesAreTheStarsOfTheVertices)
+{
+  // On a grid of cubes of side h, the star of vertex v (its own, edge, face and cell
+  // nodes) holds exactly the degree-2 nodes x with |x - v|_inf < h: 27 nodes inside,
+  // 8 at a corner of the box.  Counted here from coordinates, not from entities.
+  const double h = 0.5;
+  auto mesh = std::make_shared<mesh::Mesh>(mesh::create_box(
+      MPI_COMM_WORLD, {{{0, 0, 0}, {2 * h, 3 * h, 2 * h}}}, {2, 3, 2},
+      mesh::CellType::hexahedron, mesh::GhostMode::none));
+  Discretisation d;
+  d.degree = 2;
+  d.taylor_hood = true;
+  MuscleProblem problem(mesh, ParameterSet(Model("combi")), d);
+  const fem::FunctionSpace& V = *problem.V();
+  const std::vector<double> x = V.tabulate_dof_coordinates(false);
+  const std::vector<std::int64_t> global = V.dofmap()->index_map->global_indices();
+  auto node_of = [&global](std::int64_t dof)
+  {
+    auto it = std::find(global.begin(), global.end(), dof / 3);
+    EXPECT_NE(it, global.end()) << "dof " << dof << " is not seen on this rank";
+    return std::size_t(it - global.begin());
+  };
+  auto is_vertex = [&x, h](std::size_t node)
+  {
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(std::round(x[3 * node + i] / h) * h - x[3 * node + i]) > 1e-12)
+        return false;
+    return true;
+  };
+
+  int comm_size;
+  MPI_Comm_size(MPI_COMM_WORLD, &comm_size);
+  std::vector<IS> patches = vertex_star_patches(V);
+  std::vector<std::size_t> sizes;
+  std::vector<std::int64_t> covered;
+  for (std::size_t p = 0; p < patches.size(); ++p)
+  {
+    IS patch = patches[p];
+    PetscInt n;
+    const PetscInt* dofs;
+    ISGetLocalSize(patch, &n);
+    ISGetIndices(patch, &dofs);
+    ASSERT_EQ(n % 3, 0);
+    std::vector<std::size_t> nodes;
+    for (PetscInt i = 0; i < n; i += 3)
+    {
+      EXPECT_EQ(dofs[i + 1], dofs[i] + 1);
+      EXPECT_EQ(dofs[i + 2], dofs[i] + 2);
+      nodes.push_back(node_of(dofs[i]));
+      covered.push_back(dofs[i] / 3);
+    }
+    ISRestoreIndices(patch, &dofs);
+    std::vector<std::size_t> vertices;
+    std::copy_if(nodes.begin(), nodes.end(), std::back_inserter(vertices), is_vertex);
+    // on several ranks the last block may hold the owned nodes of no owned star
+    if (comm_size > 1 and p + 1 == patches.size() and vertices.size() != 1)
+      continue;
+    ASSERT_EQ(vertices.size(), 1u) << "a star holds one mesh vertex, its centre";
+    const double* v = &x[3 * vertices[0]];
+    std::size_t in_star = 0; // the nodes of the whole box within the star
+    for (std::size_t node = 0; node < x.size() / 3; ++node)
+    {
+      double distance = 0;
+      for (int i = 0; i < 3; ++i)
+        distance = std::max(distance, std::abs(x[3 * node + i] - v[i]));
+      in_star += distance < h - 1e-12;
+    }
+    for (std::size_t node : nodes)
+      for (int i = 0; i < 3; ++i)
+        EXPECT_LT(std::abs(x[3 * node + i] - v[i]), h - 1e-12);
+    if (comm_size == 1) // a partition boundary cuts stars
+      EXPECT_EQ(nodes.size(), in_star);
+    sizes.push_back(nodes.size());
+  }
+  for (IS& patch : patches)
+    ISDestroy(&patch);
+  if (comm_size == 1)
+  {
+    EXPECT_EQ(sizes.size(), 3u * 4u * 3u); // the vertices
+    EXPECT_EQ(std::count(sizes.begin(), sizes.end(), 27u), 2); // the inner ones
+    EXPECT_EQ(std::count(sizes.begin(), sizes.end(), 8u), 8);  // the box's corners
+  }
+  // every owned node in some patch
+  std::sort(covered.begin(), covered.end());
+  covered.erase(std::unique(covered.begin(), covered.end()), covered.end());
+  const std::int32_t owned = V.dofmap()->index_map->size_local();
+  for (std::int32_t node = 0; node < owned; ++node)
+    EXPECT_TRUE(std::binary_search(covered.begin(), covered.end(), global[node]))
+        << "node " << global[node] << " in no patch";
 }
 
 namespace

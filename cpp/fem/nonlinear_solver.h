@@ -261,6 +261,9 @@ private:
   /// on u or the augmented-Lagrangian displacement block
   void configure_mixed_shell(PC pc);
   static PetscErrorCode mixed_shell_apply(PC pc, Vec r, Vec z);
+  /// p-multigrid's degree-2 level relaxed on vertex stars
+  /// (-fieldsplit_u_mg_levels_pc_type asm; vertex_star.h)
+  void use_vertex_star_smoother(PC u_pc);
   /// the displacement block's operator (and coarse level) from the current A
   void update_mixed_shell();
   /// the augmented-Lagrangian form (-al_gamma), or null

@@ -286,14 +286,17 @@ def test_taylor_hood_two_ranks(build, scratch):
     """The cantilever's first load steps on 1 and 2 MPI ranks, and with the Schur split on
     2 (its field split and GAMG partitioned; with p-multigrid on the displacement
     block, -fieldsplit_u_pc_type mg; and with the augmented-Lagrangian blocks, -al_gamma,
-    under GAMG and under p-multigrid): the same tip.  The preconditioner does not change
+    under GAMG, under p-multigrid and under p-multigrid relaxing on vertex stars,
+    -fieldsplit_u_mg_levels_pc_type asm): the same tip.  The preconditioner does not change
     the system, so a wrong block (a sign, a transpose, W^-1 on the wrong rows) shows as
     GMRES failing within its 2000 iterations or a different tip."""
     tips = []
     pmg = ["solver.petsc=-fieldsplit_u_pc_type mg -ksp_view"]
     runs = ((1, "lu", []), (2, "lu", []), (2, "gmres-schur", []), (2, "gmres-schur", pmg),
             (2, "gmres-schur", ["solver.petsc=-al_gamma 1 -ksp_view"]),
-            (2, "gmres-schur", ["solver.petsc=-al_gamma 10 -fieldsplit_u_pc_type mg"]))
+            (2, "gmres-schur", ["solver.petsc=-al_gamma 10 -fieldsplit_u_pc_type mg"]),
+            (2, "gmres-schur", ["solver.petsc=-al_gamma 1 -fieldsplit_u_pc_type mg "
+                                "-fieldsplit_u_mg_levels_pc_type asm -ksp_view"]))
     views = []
     for i, (ranks, solver, petsc) in enumerate(runs):
         out = os.path.join(scratch, f"{i}_np{ranks}_{solver}")
@@ -311,6 +314,10 @@ def test_taylor_hood_two_ranks(build, scratch):
     fine = view.index("(fieldsplit_u_mg_levels_1_)")  # the Q2 level's smoother
     assert "type: jacobi" in view[fine:fine + 1500], view[fine:fine + 1500]
     assert "augmented Lagrangian (gamma" in views[4] and "gamg on u" in views[4], views[4][-3000:]
+    fine = views[6].index("(fieldsplit_u_mg_levels_1_)")  # our stars, not PCASM's blocks
+    smoother = views[6][fine:fine + 3000]
+    for line in ("type: asm", "user-defined overlap", "type: lu", "BASIC"):
+        assert line in smoother, (line, smoother)
 
 
 def test_taylor_hood_augmented_lagrangian_restores_the_block(build, scratch):

@@ -1,0 +1,28 @@
+#pragma once
+
+#include <cstdint>
+#include <dolfinx/fem/FunctionSpace.h>
+#include <petscis.h>
+#include <vector>
+
+namespace muscle
+{
+
+/// The vertex-star patches of a vector function space V, as PETSc index sets of
+/// global (unrolled) dof numbers for PCASM's subdomains: for every mesh vertex
+/// this rank sees, the dofs of every entity whose closure holds the vertex
+/// (the vertex, its edges, faces and cells).  On Q2 hexahedra an interior
+/// vertex's patch is 27 nodes (81 dofs), the interior of its 2 x 2 x 2 cells.
+///
+/// Why stars: an augmented-Lagrangian displacement block has a large near-kernel
+/// (fields nearly free of the penalised dilation) that point smoothers such as
+/// Jacobi cannot relax and that a coarser space cannot represent; relaxation on
+/// vertex stars spans it locally (Schöberl's kernel decomposition, as in
+/// augmented-Lagrangian multigrid for incompressible flow).
+///
+/// A vertex on the partition boundary gets one patch per rank that sees it, each
+/// from that rank's own cells: smaller stars, still covering every dof.  The
+/// caller owns the index sets (ISDestroy each).  Not collective.
+std::vector<IS> vertex_star_patches(const dolfinx::fem::FunctionSpace& V);
+
+} // namespace muscle
