@@ -63,12 +63,14 @@ std::vector<std::pair<KSP, std::string>> nested_solvers(PC pc, const std::string
   }
   else if (type == PCBJACOBI or type == PCASM)
   {
-    // GAMG's coarse solve is block Jacobi with LU, kept across Jacobians
-    PetscInt blocks = 0, first = 0;
+    // GAMG's coarse solve is block Jacobi with LU, kept across Jacobians.  No
+    // first-block number: asking for it is an MPI_Scan, and this walk runs on a
+    // failing rank alone (describe_linear_failure)
+    PetscInt blocks = 0;
     KSP* sub = nullptr;
     const PetscErrorCode error = type == PCBJACOBI
-                                     ? PCBJacobiGetSubKSP(pc, &blocks, &first, &sub)
-                                     : PCASMGetSubKSP(pc, &blocks, &first, &sub);
+                                     ? PCBJacobiGetSubKSP(pc, &blocks, nullptr, &sub)
+                                     : PCASMGetSubKSP(pc, &blocks, nullptr, &sub);
     // PCASM hands out its block count before set-up, but no solvers yet
     for (PetscInt b = 0; !error and sub and b < blocks; ++b)
       nested.emplace_back(sub[b], where + ", block");

@@ -24,6 +24,7 @@
 #include <dolfinx/la/petsc.h>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 using namespace dolfinx;
 
@@ -502,9 +503,15 @@ void NonlinearSolver::use_vertex_star_smoother(PC u_pc)
   KSPGetPC(smoother, &patches_pc);
   PCSetType(patches_pc, PCASM);
   std::vector<IS> patches = vertex_star_patches(*_problem.V());
-  PCASMSetLocalSubdomains(patches_pc, patches.size(), patches.data(), nullptr);
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  const PetscErrorCode error
+      = PCASMSetLocalSubdomains(patches_pc, patches.size(), patches.data(), nullptr);
+  PetscPopErrorHandler();
   for (IS& patch : patches)
     ISDestroy(&patch); // PCASM holds its references
+  if (error)
+    throw std::runtime_error("vertex stars: PETSc refused them as PCASM subdomains (error "
+                             + std::to_string(error) + ")");
   // additive, so that the smoother stays symmetric for Chebyshev; each star
   // solved exactly (PCASM's default is ILU(0) on a block)
   PCASMSetType(patches_pc, PC_ASM_BASIC);
@@ -525,6 +532,13 @@ void NonlinearSolver::update_mixed_shell()
   Mat coarse_matrix = _coarsening->coarse_matrix(op);
   PC u_pc;
   KSPGetPC(_u_ksp, &u_pc);
+  // PCMG keeps the fine level's smoother operator and residual matrix from its
+  // first set-up when the new operator is another object (A_gamma after a change
+  // of A's nonzero pattern): both from op, each time
+  KSP fine;
+  PCMGGetSmoother(u_pc, 1, &fine);
+  KSPSetOperators(fine, op, op);
+  PCMGSetResidual(u_pc, 1, PCMGResidualDefault, op);
   KSP coarse;
   PCMGGetCoarseSolve(u_pc, &coarse);
   KSPSetOperators(coarse, coarse_matrix, coarse_matrix);

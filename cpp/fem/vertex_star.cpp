@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <dolfinx/common/IndexMap.h>
 #include <dolfinx/fem/DofMap.h>
+#include <dolfinx/fem/FiniteElement.h>
 #include <dolfinx/mesh/Mesh.h>
 #include <dolfinx/mesh/cell_types.h>
 #include <stdexcept>
@@ -21,7 +22,7 @@ std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V)
   const fem::DofMap& dofmap = *V.dofmap();
   const fem::ElementDofLayout& layout = dofmap.element_dof_layout();
   const int bs = dofmap.index_map_bs();
-  const int nodes_per_cell = dofmap.cell_dofs(0).size();
+  const int nodes_per_cell = V.element()->space_dimension() / bs;
   // the layout may number a blocked element's dofs unrolled (node * bs + k)
   const int per_node = layout.num_dofs() == nodes_per_cell ? 1 : bs;
   if (layout.num_dofs() != nodes_per_cell * per_node)
@@ -94,7 +95,7 @@ std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V)
   for (std::int32_t node = 0; node < owned_nodes; ++node)
     if (!covered[node])
       left.push_back(node);
-  if (!left.empty())
+  if (!left.empty() or patches.empty())
     add_patch(left);
   return patches;
 }

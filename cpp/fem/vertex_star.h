@@ -9,10 +9,11 @@ namespace muscle
 {
 
 /// The vertex-star patches of a vector function space V, as PETSc index sets of
-/// global (unrolled) dof numbers for PCASM's subdomains: for every mesh vertex
-/// this rank sees, the dofs of every entity whose closure holds the vertex
-/// (the vertex, its edges, faces and cells).  On Q2 hexahedra an interior
-/// vertex's patch is 27 nodes (81 dofs), the interior of its 2 x 2 x 2 cells.
+/// global (unrolled) dof numbers for PCASM's subdomains: for every vertex this
+/// rank owns, the dofs of every entity whose closure holds the vertex (the
+/// vertex, its edges, faces and cells), from the cells this rank sees (its own
+/// and the ghosts).  On Q2 hexahedra an interior vertex's patch is 27 nodes (81
+/// dofs), the interior of its 2 x 2 x 2 cells.
 ///
 /// Why stars: an augmented-Lagrangian displacement block has a large near-kernel
 /// (fields nearly free of the penalised dilation) that point smoothers such as
@@ -20,9 +21,11 @@ namespace muscle
 /// vertex stars spans it locally (Schöberl's kernel decomposition, as in
 /// augmented-Lagrangian multigrid for incompressible flow).
 ///
-/// A vertex on the partition boundary gets one patch per rank that sees it, each
-/// from that rank's own cells: smaller stars, still covering every dof.  The
-/// caller owns the index sets (ISDestroy each).  Not collective.
+/// A vertex on a partition boundary is relaxed by its owner only (its star may
+/// lack a cell that touches it only at an edge or a vertex).  Owned dofs in no
+/// owned star form one more block, the last; a rank with none of either gets one
+/// empty block (PCASM needs one per rank).  The caller owns the index sets
+/// (ISDestroy each).  Not collective.
 std::vector<IS> vertex_star_patches(const dolfinx::fem::FunctionSpace& V);
 
 } // namespace muscle

@@ -18,6 +18,7 @@ Euler-Bernoulli at a small load; its stop message when the line search fails.
 import json
 import math
 import os
+import re
 import sys
 
 import pytest
@@ -318,6 +319,9 @@ def test_taylor_hood_two_ranks(build, scratch):
     smoother = views[6][fine:fine + 3000]
     for line in ("type: asm", "user-defined overlap", "type: lu", "BASIC"):
         assert line in smoother, (line, smoother)
+    # a star per vertex of the 20 x 2 x 2 cells (size 5 mm), at most one more block per rank
+    blocks = int(re.search(r"total subdomain blocks = (\d+)", smoother).group(1))
+    assert 21 * 3 * 3 <= blocks <= 21 * 3 * 3 + 2, smoother
 
 
 def test_taylor_hood_augmented_lagrangian_restores_the_block(build, scratch):
