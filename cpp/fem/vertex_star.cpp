@@ -29,9 +29,15 @@ std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V)
     throw std::logic_error("vertex_star_patches: the element's dof layout does not match "
                            "its dofmap");
 
-  const std::int32_t num_vertices = topology.index_map(0)->size_local()
-                                    + topology.index_map(0)->num_ghosts();
-  std::vector<std::vector<std::int32_t>> star_nodes(num_vertices);
+  // only the owner's star: a vertex relaxed by two ranks is corrected twice, and
+  // that costs more than the cells a rank's star may lack (measured: the
+  // fusiform at n = 1 on two ranks, 21.3 outer iterations with both ranks'
+  // stars, 18.7 with the owner's, as on one rank)
+  const std::int32_t owned_vertices = topology.index_map(0)->size_local();
+  std::vector<std::vector<std::int32_t>> star_nodes(owned_vertices);
+  std::vector<graph::AdjacencyList<int>> entity_vertices; // per dimension, of the cell
+  for (int d = 0; d <= tdim; ++d)
+    entity_vertices.push_back(mesh::get_entity_vertices(topology.cell_type(), d));
   const std::int32_t num_cells = topology.index_map(tdim)->size_local()
                                  + topology.index_map(tdim)->num_ghosts();
   for (std::int32_t c = 0; c < num_cells; ++c)
@@ -39,29 +45,22 @@ std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V)
     auto cell_nodes = dofmap.cell_dofs(c);
     auto cell_vertices = cell_to_vertex->links(c);
     for (int d = 0; d <= tdim; ++d)
-    {
-      const graph::AdjacencyList<int> entity_vertices
-          = mesh::get_entity_vertices(topology.cell_type(), d);
-      for (int e = 0; e < entity_vertices.num_nodes(); ++e)
-        for (int local_vertex : entity_vertices.links(e))
+      for (int e = 0; e < entity_vertices[d].num_nodes(); ++e)
+        for (int local_vertex : entity_vertices[d].links(e))
         {
-          std::vector<std::int32_t>& star = star_nodes[cell_vertices[local_vertex]];
+          const std::int32_t vertex = cell_vertices[local_vertex];
+          if (vertex >= owned_vertices)
+            continue;
           for (int dof : layout.entity_dofs(d, e))
-            star.push_back(cell_nodes[dof / per_node]);
+            star_nodes[vertex].push_back(cell_nodes[dof / per_node]);
         }
-    }
   }
 
   const common::IndexMap& node_map = *dofmap.index_map;
   std::vector<IS> patches;
-  patches.reserve(num_vertices);
+  patches.reserve(owned_vertices + 1);
   std::vector<std::int64_t> global_nodes;
   std::vector<PetscInt> dofs;
-  // only the owner's star: a vertex relaxed by two ranks is corrected twice, and
-  // that costs more than the cells a rank's star may lack (measured: the
-  // fusiform at n = 1 on two ranks, 21.3 outer iterations with both ranks'
-  // stars, 18.7 with the owner's, as on one rank)
-  const std::int32_t owned_vertices = topology.index_map(0)->size_local();
   const std::int32_t owned_nodes = node_map.size_local();
   std::vector<bool> covered(owned_nodes, false);
   auto add_patch = [&](const std::vector<std::int32_t>& nodes)
