@@ -262,7 +262,7 @@ private:
   void configure_mixed_shell(PC pc);
   static PetscErrorCode mixed_shell_apply(PC pc, Vec r, Vec z);
   /// p-multigrid's degree-2 level relaxed on vertex stars
-  /// (-fieldsplit_u_mg_levels_pc_type asm; vertex_star.h)
+  /// (-fieldsplit_u_mg_levels_pc_type stars; vertex_star.h, star_relaxation.h)
   void use_vertex_star_smoother(PC u_pc);
   /// the displacement block's operator (and coarse level) from the current A
   void update_mixed_shell();

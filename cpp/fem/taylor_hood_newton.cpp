@@ -15,6 +15,7 @@
 #include "p_multigrid.h"
 #include "rigid_body_modes.h"
 #include "saddle_parts.h"
+#include "star_relaxation.h"
 #include "vertex_star.h"
 
 #include <cmath>
@@ -291,30 +292,27 @@ std::string shortest(double x)
   return out.str();
 }
 
-/// The defaults of the displacement block's AMG under -fieldsplit_u_ (field split
-/// and shell alike); `constrained`: u carries no block size of 3
-void set_displacement_amg_defaults(bool constrained)
+/// BoomerAMG's defaults for a displacement operator under `prefix` (the block
+/// itself, or p-multigrid's degree-1 level); `nodal`: the operator has the block
+/// size of 3 (a constrained u has not)
+void set_boomeramg_defaults(const std::string& prefix, bool nodal)
 {
-  // BoomerAMG on the displacement block (-fieldsplit_u_pc_type hypre): its scalar
-  // defaults ignore that u has three components, and its plain nodal coarsening
-  // fills the coarse operators in (2.7 GB at n = 1).  These settings cut GAMG's
-  // Krylov count on the fusiform muscle by a third (n = 1) to a half (n = 2), but a
-  // V-cycle costs more (BENCHMARKS.md, "Preconditioners against kappa"), so GAMG
-  // stays the default.
-  const std::string hypre_type = string_option("-fieldsplit_u_pc_hypre_type");
-  if (string_option("-fieldsplit_u_pc_type") == "hypre"
-      and (hypre_type.empty() or hypre_type == "boomeramg"))
-  {
-    set_unless_given({{"-fieldsplit_u_pc_hypre_boomeramg_coarsen_type", "HMIS"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_interp_type", "ext+i"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_strong_threshold", "0.5"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_agg_nl", "1"},
-                      {"-fieldsplit_u_pc_hypre_boomeramg_P_max", "4"}});
-    // nodes need the block size of 3, which a constrained u does not carry
-    if (!constrained)
-      set_unless_given({{"-fieldsplit_u_pc_hypre_boomeramg_nodal_coarsen", "6"},
-                        {"-fieldsplit_u_pc_hypre_boomeramg_vec_interp_variant", "2"}});
-  }
+  // Its scalar defaults ignore that u has three components, and its plain nodal
+  // coarsening fills the coarse operators in (2.7 GB at n = 1).  These settings
+  // cut GAMG's Krylov count on the fusiform muscle by a third (n = 1) to a half
+  // (n = 2), but a V-cycle costs more (BENCHMARKS.md, "Preconditioners against
+  // kappa"), so GAMG stays the default.
+  const std::string type = string_option((prefix + "pc_hypre_type").c_str());
+  if (string_option((prefix + "pc_type").c_str()) != "hypre"
+      or !(type.empty() or type == "boomeramg"))
+    return;
+  std::vector<std::pair<std::string, std::string>> defaults
+      = {{"coarsen_type", "HMIS"}, {"interp_type", "ext+i"}, {"strong_threshold", "0.5"},
+         {"agg_nl", "1"},          {"P_max", "4"}};
+  if (nodal)
+    defaults.insert(defaults.end(), {{"nodal_coarsen", "6"}, {"vec_interp_variant", "2"}});
+  for (const auto& [name, value] : defaults)
+    set_unless_given((prefix + "pc_hypre_boomeramg_" + name).c_str(), value.c_str());
 }
 } // namespace
 
@@ -405,7 +403,7 @@ void NonlinearSolver::configure_mixed_split(PC pc)
                     {"-fieldsplit_q_ksp_type", "preonly"},
                     {"-fieldsplit_q_pc_type", "lu"},
                     {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"}});
-  set_displacement_amg_defaults(_constraint != nullptr);
+  set_boomeramg_defaults("-fieldsplit_u_", _constraint == nullptr);
 }
 
 void NonlinearSolver::configure_mixed_shell(PC pc)
@@ -434,7 +432,14 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
                     {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"},
                     {"-fieldsplit_u_pc_type", "gamg"},
                     {"-fieldsplit_u_mg_levels_pc_type", "jacobi"}});
-  set_displacement_amg_defaults(false);
+  set_boomeramg_defaults("-fieldsplit_u_", true);
+  if (pmg)
+  {
+    // the degree-1 level is never constrained (p-multigrid refuses a constraint)
+    set_boomeramg_defaults("-fieldsplit_u_mg_coarse_", true);
+    for (const char* inner : {"-fieldsplit_u_mg_coarse_ksp_type", "-fieldsplit_u_mg_levels_ksp_type"})
+      require_flexible_outer(inner, "p-multigrid on the displacement block");
+  }
   KSPCreate(comm, &_q_ksp);
   KSPSetOptionsPrefix(_q_ksp, "fieldsplit_q_");
   KSPSetType(_q_ksp, KSPPREONLY);
@@ -465,7 +470,7 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
     PC amg;
     KSPGetPC(coarse, &amg);
     PCSetType(amg, PCGAMG);
-    if (string_option("-fieldsplit_u_mg_levels_pc_type") == "asm")
+    if (string_option("-fieldsplit_u_mg_levels_pc_type") == PCSTARS)
       use_vertex_star_smoother(u_pc);
   }
   if (!pmg)
@@ -495,28 +500,19 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
 
 void NonlinearSolver::use_vertex_star_smoother(PC u_pc)
 {
-  // PCASM's own subdomains (one block per rank, grown by overlap) know nothing
-  // of the mesh; stars are what relax the augmented block's near-kernel
+  // one patch per owned vertex: PCASM's own subdomains (one block per rank,
+  // grown by overlap) know nothing of the mesh, and stars are what relax the
+  // augmented block's near-kernel
   KSP smoother;
   PCMGGetSmoother(u_pc, 1, &smoother);
-  PC patches_pc;
-  KSPGetPC(smoother, &patches_pc);
-  PCSetType(patches_pc, PCASM);
+  PC stars;
+  KSPGetPC(smoother, &stars);
+  register_star_relaxation();
+  PCSetType(stars, PCSTARS);
   std::vector<IS> patches = vertex_star_patches(*_problem.V());
-  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-  const PetscErrorCode error
-      = PCASMSetLocalSubdomains(patches_pc, patches.size(), patches.data(), nullptr);
-  PetscPopErrorHandler();
+  set_star_patches(stars, patches);
   for (IS& patch : patches)
-    ISDestroy(&patch); // PCASM holds its references
-  if (error)
-    throw std::runtime_error("vertex stars: PETSc refused them as PCASM subdomains (error "
-                             + std::to_string(error) + ")");
-  // additive, so that the smoother stays symmetric for Chebyshev; each star
-  // solved exactly (PCASM's default is ILU(0) on a block)
-  PCASMSetType(patches_pc, PC_ASM_BASIC);
-  set_unless_given({{"-fieldsplit_u_mg_levels_sub_ksp_type", "preonly"},
-                    {"-fieldsplit_u_mg_levels_sub_pc_type", "lu"}});
+    ISDestroy(&patch);
 }
 
 void NonlinearSolver::update_mixed_shell()

@@ -9,8 +9,8 @@ namespace muscle
 {
 
 /// The vertex-star patches of a vector function space V, as PETSc index sets of
-/// global (unrolled) dof numbers for PCASM's subdomains: for every vertex this
-/// rank owns, the dofs of every entity whose closure holds the vertex (the
+/// global (unrolled) dof numbers, the patches of star_relaxation.h: for every
+/// vertex this rank owns, the dofs of every entity whose closure holds the vertex (the
 /// vertex, its edges, faces and cells), from the cells this rank sees (its own
 /// and the ghosts).  On Q2 hexahedra an interior vertex's patch is 27 nodes (81
 /// dofs), the interior of its 2 x 2 x 2 cells.
@@ -24,8 +24,8 @@ namespace muscle
 /// A vertex on a partition boundary is relaxed by its owner only (its star may
 /// lack a cell that touches it only at an edge or a vertex).  Owned dofs in no
 /// owned star form one more block, the last; a rank with none of either gets one
-/// empty block (PCASM needs one per rank).  The caller owns the index sets
-/// (ISDestroy each).  Not collective.
+/// empty block (PCASM, which the tests compare with, needs one per rank).  The
+/// caller owns the index sets (ISDestroy each).  Not collective.
 std::vector<IS> vertex_star_patches(const dolfinx::fem::FunctionSpace& V);
 
 } // namespace muscle

@@ -287,8 +287,9 @@ def test_taylor_hood_two_ranks(build, scratch):
     """The cantilever's first load steps on 1 and 2 MPI ranks, and with the Schur split on
     2 (its field split and GAMG partitioned; with p-multigrid on the displacement
     block, -fieldsplit_u_pc_type mg; and with the augmented-Lagrangian blocks, -al_gamma,
-    under GAMG, under p-multigrid and under p-multigrid relaxing on vertex stars,
-    -fieldsplit_u_mg_levels_pc_type asm): the same tip.  The preconditioner does not change
+    under GAMG, under p-multigrid and under p-multigrid relaxing on vertex stars above
+    BoomerAMG, -fieldsplit_u_mg_levels_pc_type stars -fieldsplit_u_mg_coarse_pc_type
+    hypre): the same tip.  The preconditioner does not change
     the system, so a wrong block (a sign, a transpose, W^-1 on the wrong rows) shows as
     GMRES failing within its 2000 iterations or a different tip."""
     tips = []
@@ -297,7 +298,8 @@ def test_taylor_hood_two_ranks(build, scratch):
             (2, "gmres-schur", ["solver.petsc=-al_gamma 1 -ksp_view"]),
             (2, "gmres-schur", ["solver.petsc=-al_gamma 10 -fieldsplit_u_pc_type mg"]),
             (2, "gmres-schur", ["solver.petsc=-al_gamma 1 -fieldsplit_u_pc_type mg "
-                                "-fieldsplit_u_mg_levels_pc_type asm -ksp_view"]))
+                                "-fieldsplit_u_mg_levels_pc_type stars "
+                                "-fieldsplit_u_mg_coarse_pc_type hypre -ksp_view"]))
     views = []
     for i, (ranks, solver, petsc) in enumerate(runs):
         out = os.path.join(scratch, f"{i}_np{ranks}_{solver}")
@@ -315,13 +317,16 @@ def test_taylor_hood_two_ranks(build, scratch):
     fine = view.index("(fieldsplit_u_mg_levels_1_)")  # the Q2 level's smoother
     assert "type: jacobi" in view[fine:fine + 1500], view[fine:fine + 1500]
     assert "augmented Lagrangian (gamma" in views[4] and "gamg on u" in views[4], views[4][-3000:]
-    fine = views[6].index("(fieldsplit_u_mg_levels_1_)")  # our stars, not PCASM's blocks
+    fine = views[6].index("(fieldsplit_u_mg_levels_1_)")  # the Q2 level's smoother
     smoother = views[6][fine:fine + 3000]
-    for line in ("type: asm", "user-defined overlap", "type: lu", "BASIC"):
-        assert line in smoother, (line, smoother)
+    assert "type: stars" in smoother, smoother
     # a star per vertex of the 20 x 2 x 2 cells (size 5 mm), at most one more block per rank
-    blocks = int(re.search(r"total subdomain blocks = (\d+)", smoother).group(1))
-    assert 21 * 3 * 3 <= blocks <= 21 * 3 * 3 + 2, smoother
+    patches = int(re.search(r"vertex stars: (\d+) patches, at most (\d+)", smoother).group(1))
+    assert 21 * 3 * 3 <= patches <= 21 * 3 * 3 + 2, smoother
+    # BoomerAMG on the Q1 level with the settings for systems, on its three components
+    coarse = views[6][views[6].index("(fieldsplit_u_mg_coarse_)"):fine]
+    for line in ("HMIS", "ext+i", "HYPRE_BOOMERAMGSetNodal() 6", "bs=3"):
+        assert line in coarse, (line, coarse)
 
 
 def test_taylor_hood_augmented_lagrangian_restores_the_block(build, scratch):
@@ -351,8 +356,9 @@ def test_taylor_hood_inexact_inner_solve(build, scratch):
     inner solve stops at its iteration limit (DIVERGED_ITS), which is an approximation
     and no failure (it was taken for one, and this run stopped after its cutbacks).
     The tip must be the direct solver's.  Under plain GMRES, which assumes a fixed
-    preconditioner, an inner Krylov method is refused, naming the way out (also in the
-    F-bar penalty split, whose soft block took one silently)."""
+    preconditioner, an inner Krylov method is refused, naming the way out (also on
+    p-multigrid's Q1 level and in the F-bar penalty split, whose soft block took one
+    silently)."""
     tips = []
     for name, solver, petsc in (
             ("lu", "lu", []),
@@ -370,6 +376,13 @@ def test_taylor_hood_inexact_inner_solve(build, scratch):
     assert result.returncode == 2, result.stdout + result.stderr
     assert "-fieldsplit_u_ksp_type cg" in result.stderr \
         and "-ksp_type fgmres" in result.stderr, result.stderr
+    # p-multigrid's Q1 level, the same way
+    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "coarse"), QUIET + TAYLOR_HOOD + [
+        "time.end=0.2", "solver.linear=gmres-schur",
+        "solver.petsc=-fieldsplit_u_pc_type mg -fieldsplit_u_mg_coarse_ksp_type gmres"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "-fieldsplit_u_mg_coarse_ksp_type gmres" in result.stderr \
+        and "p-multigrid" in result.stderr, result.stderr
     # the F-bar penalty split's soft block, the same way
     result = muscle_run(build, CANTILEVER, os.path.join(scratch, "soft"), QUIET + [
         "element.degree=1", "time.end=0.2", "solver.linear=gmres-schur",

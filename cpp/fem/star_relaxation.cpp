@@ -1,0 +1,237 @@
+#include "star_relaxation.h"
+
+#include "../common/errors.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <petsc/private/pcimpl.h> // a new PC type sets its operations (PETSc's way)
+#include <vector>
+
+namespace muscle
+{
+namespace
+{
+struct Stars
+{
+  bool given = false;
+  std::vector<PetscInt> offsets{0}; ///< patch p: positions[offsets[p] .. offsets[p + 1])
+  std::vector<PetscInt> positions;  ///< into `rows`, the union of the patches' rows
+  std::vector<PetscInt> rows;       ///< global, sorted
+  VecScatter scatter = nullptr;     ///< the operator's vector -> `in` (rows)
+  Vec in = nullptr, out = nullptr;
+  std::vector<PetscScalar> inverses; ///< A_p^-1, column-major, one after another
+  PetscInt largest = 0;
+};
+
+/// -log_view's rows for the stars' factorisation and relaxation
+PetscLogEvent factor_event = 0, relax_event = 0;
+
+Stars& stars_of(PC pc) { return *static_cast<Stars*>(pc->data); }
+
+PetscErrorCode reset(Stars& s)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterDestroy(&s.scatter));
+  PetscCall(VecDestroy(&s.in));
+  PetscCall(VecDestroy(&s.out));
+  PetscFunctionReturn(0);
+}
+
+/// The scatter of the patches' rows, owned or not, into one local vector:
+/// made once, as the operator's layout does not change
+PetscErrorCode make_scatter(Stars& s, Mat A)
+{
+  PetscFunctionBeginUser;
+  IS rows;
+  Vec x;
+  PetscCall(ISCreateGeneral(PETSC_COMM_SELF, s.rows.size(), s.rows.data(), PETSC_USE_POINTER,
+                            &rows));
+  PetscCall(MatCreateVecs(A, &x, nullptr));
+  PetscCall(VecCreateSeq(PETSC_COMM_SELF, s.rows.size(), &s.in));
+  PetscCall(VecDuplicate(s.in, &s.out));
+  PetscCall(VecScatterCreate(x, rows, s.in, nullptr, &s.scatter));
+  PetscCall(VecDestroy(&x));
+  PetscCall(ISDestroy(&rows));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode setup(PC pc)
+{
+  PetscFunctionBeginUser;
+  Stars& s = stars_of(pc);
+  if (!s.given)
+    SETERRQ(PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_WRONGSTATE,
+            "-pc_type stars: this preconditioner has no patches; it relaxes the vertex "
+            "stars of p-multigrid's degree-2 level (-fieldsplit_u_mg_levels_pc_type stars) "
+            "and nowhere else");
+  PetscCall(PetscLogEventBegin(factor_event, pc, 0, 0, 0));
+  if (!s.scatter)
+    PetscCall(make_scatter(s, pc->pmat));
+  // the patches' rows with all their columns among them, ghost rows fetched
+  IS rows;
+  Mat* sub;
+  PetscCall(ISCreateGeneral(PETSC_COMM_SELF, s.rows.size(), s.rows.data(), PETSC_USE_POINTER,
+                            &rows));
+  PetscCall(MatCreateSubMatrices(pc->pmat, 1, &rows, &rows, MAT_INITIAL_MATRIX, &sub));
+  PetscCall(ISDestroy(&rows));
+
+  std::vector<PetscInt> in_patch(s.rows.size(), -1); // a row's place in the current patch
+  std::size_t size = 0;
+  for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
+    size += std::size_t(s.offsets[p + 1] - s.offsets[p]) * (s.offsets[p + 1] - s.offsets[p]);
+  s.inverses.assign(size, 0.0);
+  std::size_t at = 0;
+  bool singular = false;
+  for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
+  {
+    const PetscInt begin = s.offsets[p], m = s.offsets[p + 1] - begin;
+    for (PetscInt k = 0; k < m; ++k)
+      in_patch[s.positions[begin + k]] = k;
+    Eigen::Map<Eigen::MatrixXd> block(s.inverses.data() + at, m, m);
+    for (PetscInt k = 0; k < m; ++k)
+    {
+      PetscInt n;
+      const PetscInt* cols;
+      const PetscScalar* values;
+      PetscCall(MatGetRow(sub[0], s.positions[begin + k], &n, &cols, &values));
+      for (PetscInt j = 0; j < n; ++j)
+        if (const PetscInt l = in_patch[cols[j]]; l >= 0)
+          block(k, l) = values[j];
+      PetscCall(MatRestoreRow(sub[0], s.positions[begin + k], &n, &cols, &values));
+    }
+    for (PetscInt k = 0; k < m; ++k)
+      in_patch[s.positions[begin + k]] = -1;
+    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(block);
+    // a zero (or NaN) pivot: the patch's block is singular
+    singular = singular or !(lu.matrixLU().diagonal().cwiseAbs().array() > 0).all();
+    block = lu.inverse();
+    singular = singular or !block.allFinite();
+    at += m * m;
+  }
+  PetscCall(MatDestroySubMatrices(1, &sub));
+  PetscCall(PetscLogEventEnd(factor_event, pc, 0, 0, 0));
+  // a failure, not an error: the Newton solve cuts its step (linear_failure.h)
+  PetscCall(PCSetFailedReason(pc, singular ? PC_FACTOR_NUMERIC_ZEROPIVOT : PC_NOERROR));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode apply(PC pc, Vec x, Vec y)
+{
+  PetscFunctionBeginUser;
+  Stars& s = stars_of(pc);
+  PetscCall(PetscLogEventBegin(relax_event, pc, x, y, 0));
+  PetscCall(VecScatterBegin(s.scatter, x, s.in, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(s.scatter, x, s.in, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecSet(s.out, 0.0));
+  const PetscScalar* in;
+  PetscScalar* out;
+  PetscCall(VecGetArrayRead(s.in, &in));
+  PetscCall(VecGetArray(s.out, &out));
+  Eigen::VectorXd r(s.largest), z(s.largest);
+  std::size_t at = 0;
+  for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
+  {
+    const PetscInt begin = s.offsets[p], m = s.offsets[p + 1] - begin;
+    for (PetscInt k = 0; k < m; ++k)
+      r[k] = in[s.positions[begin + k]];
+    Eigen::Map<const Eigen::MatrixXd> inverse(s.inverses.data() + at, m, m);
+    z.head(m).noalias() = inverse * r.head(m);
+    for (PetscInt k = 0; k < m; ++k)
+      out[s.positions[begin + k]] += z[k];
+    at += m * m;
+  }
+  PetscCall(VecRestoreArrayRead(s.in, &in));
+  PetscCall(VecRestoreArray(s.out, &out));
+  PetscCall(VecSet(y, 0.0));
+  PetscCall(VecScatterBegin(s.scatter, s.out, y, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(s.scatter, s.out, y, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(PetscLogEventEnd(relax_event, pc, x, y, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode view(PC pc, PetscViewer viewer)
+{
+  PetscFunctionBeginUser;
+  PetscBool ascii;
+  PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
+  if (!ascii)
+    PetscFunctionReturn(0);
+  const Stars& s = stars_of(pc);
+  long local[2] = {long(s.offsets.size()) - 1, long(s.largest)}, total[2];
+  MPI_Comm comm = PetscObjectComm((PetscObject)pc);
+  MPI_Allreduce(&local[0], &total[0], 1, MPI_LONG, MPI_SUM, comm);
+  MPI_Allreduce(&local[1], &total[1], 1, MPI_LONG, MPI_MAX, comm);
+  PetscCall(PetscViewerASCIIPrintf(viewer,
+                                   "  vertex stars: %ld patches, at most %ld unknowns each, "
+                                   "each block inverted (dense LU), added\n",
+                                   total[0], total[1]));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode destroy(PC pc)
+{
+  PetscFunctionBeginUser;
+  PetscCall(reset(stars_of(pc)));
+  delete static_cast<Stars*>(pc->data);
+  pc->data = nullptr;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode create(PC pc)
+{
+  PetscFunctionBeginUser;
+  pc->data = new Stars;
+  pc->ops->setup = setup;
+  pc->ops->apply = apply;
+  pc->ops->view = view;
+  pc->ops->destroy = destroy;
+  PetscFunctionReturn(0);
+}
+} // namespace
+
+void register_star_relaxation()
+{
+  static bool registered = false;
+  if (!registered)
+  {
+    PCRegister(PCSTARS, create);
+    PetscLogEventRegister("PCStarsFactor", PC_CLASSID, &factor_event);
+    PetscLogEventRegister("PCStarsRelax", PC_CLASSID, &relax_event);
+  }
+  registered = true;
+}
+
+void set_star_patches(PC pc, std::span<const IS> patches)
+{
+  PetscBool stars = PETSC_FALSE;
+  PetscObjectTypeCompare(reinterpret_cast<PetscObject>(pc), PCSTARS, &stars);
+  if (!stars)
+    throw std::logic_error("set_star_patches: the preconditioner is not of type stars");
+  Stars& s = stars_of(pc);
+  if (reset(s))
+    throw std::runtime_error("set_star_patches: PETSc could not free the old scatter");
+  std::vector<PetscInt> dofs;
+  s.offsets.assign(1, 0);
+  for (IS patch : patches)
+  {
+    PetscInt n;
+    const PetscInt* indices;
+    ISGetLocalSize(patch, &n);
+    ISGetIndices(patch, &indices);
+    dofs.insert(dofs.end(), indices, indices + n);
+    ISRestoreIndices(patch, &indices);
+    s.offsets.push_back(dofs.size());
+    s.largest = std::max(s.largest, n);
+  }
+  s.rows = dofs;
+  std::sort(s.rows.begin(), s.rows.end());
+  s.rows.erase(std::unique(s.rows.begin(), s.rows.end()), s.rows.end());
+  s.positions.resize(dofs.size());
+  for (std::size_t k = 0; k < dofs.size(); ++k)
+    s.positions[k] = std::lower_bound(s.rows.begin(), s.rows.end(), dofs[k]) - s.rows.begin();
+  s.given = true;
+}
+
+} // namespace muscle
