@@ -4,6 +4,8 @@
 // The failures are built on purpose: a saddle-point matrix, whose zero
 // diagonal stops SOR, and a singular one, which stops LU, alone or inside a
 // field split.
+#include <common/errors.h>
+#include <common/petsc_options.h>
 #include <fem/linear_failure.h>
 
 #include <functional>
@@ -187,4 +189,35 @@ TEST(LinearFailure, FailureInsideAFieldSplitIsNamedWithItsPath)
       << s.description;
   EXPECT_EQ(s.description.find("field split q"), std::string::npos) << s.description;
   std::printf("%s\n", s.description.c_str());
+}
+
+TEST(LinearFailure, InnerKrylovMethodNeedsAFlexibleOuterOne)
+{
+  // right-preconditioned GMRES assumes a fixed preconditioner; the flexible methods
+  // (PETSc's "f" and "pipef" families, GCR) do not
+  PetscOptionsSetValue(nullptr, "-test_inner_ksp_type", "gmres");
+  for (const char* outer : {"fgmres", "gcr", "fcg", "pipefgmres", "pipegcr", "fbcgs"})
+  {
+    PetscOptionsSetValue(nullptr, "-ksp_type", outer);
+    EXPECT_NO_THROW(require_flexible_outer("-test_inner_ksp_type", "test")) << outer;
+  }
+  for (const char* outer : {"gmres", "bcgs", "cg"})
+  {
+    PetscOptionsSetValue(nullptr, "-ksp_type", outer);
+    try
+    {
+      require_flexible_outer("-test_inner_ksp_type", "test");
+      ADD_FAILURE() << outer << " taken as flexible";
+    }
+    catch (const InputError& e)
+    {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("-test_inner_ksp_type gmres"), std::string::npos) << message;
+      EXPECT_NE(message.find("-ksp_type fgmres"), std::string::npos) << message;
+    }
+  }
+  PetscOptionsSetValue(nullptr, "-test_inner_ksp_type", "preonly"); // a fixed inner solve
+  EXPECT_NO_THROW(require_flexible_outer("-test_inner_ksp_type", "test"));
+  PetscOptionsClearValue(nullptr, "-test_inner_ksp_type");
+  PetscOptionsClearValue(nullptr, "-ksp_type");
 }

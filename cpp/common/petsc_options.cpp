@@ -2,6 +2,9 @@
 #include "errors.h"
 #include <petscsys.h>
 
+#include <algorithm>
+#include <vector>
+
 namespace muscle
 {
 
@@ -51,8 +54,11 @@ void require_flexible_outer(const char* inner, const std::string& what)
 {
   const std::string type = string_option(inner);
   const std::string outer = string_option("-ksp_type");
+  // PETSc's Krylov methods that take a preconditioner varying between applications
+  const std::vector<std::string> flexible
+      = {"fgmres", "gcr", "fcg", "pipefcg", "pipefgmres", "pipegcr", "fbcgs", "fbcgsr"};
   if (type.empty() or type == "preonly" or type == "richardson" or type == "chebyshev"
-      or outer == "fgmres" or outer == "gcr")
+      or std::find(flexible.begin(), flexible.end(), outer) != flexible.end())
     return;
   throw InputError(std::string(inner) + " " + type + ": an inner Krylov method makes the "
                    + what + " vary between applications; the outer one must be flexible: "

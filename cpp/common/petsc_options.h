@@ -25,7 +25,8 @@ void choice_option(const char* name, std::initializer_list<const char*> allowed,
 /// An inner Krylov method (option `inner`: a -*_ksp_type other than preonly,
 /// richardson or chebyshev) makes preconditioner `what` vary between applications;
 /// right-preconditioned GMRES assumes it fixed and would report a residual its
-/// solution does not have.  InputError unless -ksp_type is flexible (fgmres, gcr).
+/// solution does not have.  InputError unless -ksp_type is flexible (fgmres, gcr,
+/// fcg, pipefcg, pipefgmres, pipegcr, fbcgs, fbcgsr).
 void require_flexible_outer(const char* inner, const std::string& what);
 
 } // namespace muscle
