@@ -54,9 +54,10 @@ void require_flexible_outer(const char* inner, const std::string& what)
 {
   const std::string type = string_option(inner);
   const std::string outer = string_option("-ksp_type");
-  // PETSc's Krylov methods that take a preconditioner varying between applications
-  const std::vector<std::string> flexible
-      = {"fgmres", "gcr", "fcg", "pipefcg", "pipefgmres", "pipegcr", "fbcgs", "fbcgsr"};
+  // PETSc's Krylov methods that take a preconditioner varying between applications,
+  // on the right as configure_linear_solver sets it (fcg, pipefcg and pipegcr take
+  // it on the left only, and CG assumes a symmetric positive definite system)
+  const std::vector<std::string> flexible = {"fgmres", "gcr", "pipefgmres", "fbcgs", "fbcgsr"};
   if (type.empty() or type == "preonly" or type == "richardson" or type == "chebyshev"
       or std::find(flexible.begin(), flexible.end(), outer) != flexible.end())
     return;

@@ -26,7 +26,7 @@ void choice_option(const char* name, std::initializer_list<const char*> allowed,
 /// richardson or chebyshev) makes preconditioner `what` vary between applications;
 /// right-preconditioned GMRES assumes it fixed and would report a residual its
 /// solution does not have.  InputError unless -ksp_type is flexible (fgmres, gcr,
-/// fcg, pipefcg, pipefgmres, pipegcr, fbcgs, fbcgsr).
+/// pipefgmres, fbcgs, fbcgsr).
 void require_flexible_outer(const char* inner, const std::string& what);
 
 } // namespace muscle

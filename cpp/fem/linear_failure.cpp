@@ -155,6 +155,10 @@ std::string linear_failure_advice(const std::string& d)
   const bool pivot = d.find("ZEROPIVOT") != std::string::npos
                      or d.find("Zero diagonal") != std::string::npos;
   std::string advice = "the linear solver failed, not Newton: ";
+  if (pivot and d.find("(stars)") != std::string::npos)
+    return advice + "a vertex star's block is singular; relax p-multigrid's degree-2 level "
+                    "with Jacobi (without -fieldsplit_u_mg_levels_pc_type stars) or use the "
+                    "direct solver (--linear-solver lu, scene solver.linear: lu)";
   if (multigrid and pivot)
     // a coarse level of the nearly incompressible system can have zero
     // diagonals, where SOR and LU stop (BENCHMARKS.md, the smoother probes)

@@ -79,7 +79,20 @@ Mat DegreeOneCoarsening::coarse_matrix(Mat A)
     MPI_Comm_size(PetscObjectComm(reinterpret_cast<PetscObject>(A)), &ranks);
     if (ranks == 1)
       MatProductSetAlgorithm(_coarse, "rap");
-    MatProductSetFromOptions(_coarse); // -matptap_via still chooses
+    // -fieldsplit_u_mg_coarse_mat_product_algorithm chooses another (not -matptap_via,
+    // which PETSc reads for MatPtAP's products only)
+    MatSetOptionsPrefix(_coarse, "fieldsplit_u_mg_coarse_");
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    const PetscErrorCode error = MatProductSetFromOptions(_coarse);
+    PetscPopErrorHandler();
+    if (error)
+    {
+      const char* text = nullptr;
+      char* specific = nullptr;
+      PetscErrorMessage(error, &text, &specific);
+      throw InputError(std::string("p-multigrid's Galerkin product P^T A P: ")
+                       + (specific and *specific ? specific : text));
+    }
     MatProductSymbolic(_coarse);
     MatProductNumeric(_coarse);
     MatSetNearNullSpace(_coarse, _modes);

@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <new>
 #include <stdexcept>
 #include <petsc/private/pcimpl.h> // a new PC type sets its operations (PETSc's way)
 #include <vector>
@@ -23,6 +25,8 @@ struct Stars
   Vec in = nullptr, out = nullptr;
   std::vector<PetscScalar> inverses; ///< A_p^-1, column-major, one after another
   PetscInt largest = 0;
+  long total_patches = 0, total_largest = 0; ///< over all ranks, for the view
+  PetscInt local_rows = -1;                   ///< the operator's, when `scatter` was made
 };
 
 /// -log_view's rows for the stars' factorisation and relaxation
@@ -39,11 +43,12 @@ PetscErrorCode reset(Stars& s)
   PetscFunctionReturn(0);
 }
 
-/// The scatter of the patches' rows, owned or not, into one local vector:
-/// made once, as the operator's layout does not change
+/// The scatter of the patches' rows, owned or not, into one local vector: made
+/// once, and again only if the operator's layout changes
 PetscErrorCode make_scatter(Stars& s, Mat A)
 {
   PetscFunctionBeginUser;
+  PetscCall(MatGetLocalSize(A, &s.local_rows, nullptr));
   IS rows;
   Vec x;
   PetscCall(ISCreateGeneral(PETSC_COMM_SELF, s.rows.size(), s.rows.data(), PETSC_USE_POINTER,
@@ -57,7 +62,7 @@ PetscErrorCode make_scatter(Stars& s, Mat A)
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode setup(PC pc)
+PetscErrorCode setup_patches(PC pc)
 {
   PetscFunctionBeginUser;
   Stars& s = stars_of(pc);
@@ -67,6 +72,10 @@ PetscErrorCode setup(PC pc)
             "stars of p-multigrid's degree-2 level (-fieldsplit_u_mg_levels_pc_type stars) "
             "and nowhere else");
   PetscCall(PetscLogEventBegin(factor_event, pc, 0, 0, 0));
+  PetscInt local_rows;
+  PetscCall(MatGetLocalSize(pc->pmat, &local_rows, nullptr));
+  if (s.scatter and local_rows != s.local_rows)
+    PetscCall(reset(s));
   if (!s.scatter)
     PetscCall(make_scatter(s, pc->pmat));
   // the patches' rows with all their columns among them, ghost rows fetched
@@ -103,21 +112,46 @@ PetscErrorCode setup(PC pc)
     }
     for (PetscInt k = 0; k < m; ++k)
       in_patch[s.positions[begin + k]] = -1;
+    // a pivot at round-off of the block's size (or NaN): singular, as PETSc's LU
+    // would judge it, not an inverse of 1e17
+    const double size = m > 0 ? block.cwiseAbs().rowwise().sum().maxCoeff() : 0.0;
     const Eigen::PartialPivLU<Eigen::MatrixXd> lu(block);
-    // a zero (or NaN) pivot: the patch's block is singular
-    singular = singular or !(lu.matrixLU().diagonal().cwiseAbs().array() > 0).all();
+    singular = singular
+               or !(lu.matrixLU().diagonal().cwiseAbs().array()
+                    > 100 * std::numeric_limits<double>::epsilon() * size)
+                       .all();
     block = lu.inverse();
     singular = singular or !block.allFinite();
     at += m * m;
   }
   PetscCall(MatDestroySubMatrices(1, &sub));
   PetscCall(PetscLogEventEnd(factor_event, pc, 0, 0, 0));
-  // a failure, not an error: the Newton solve cuts its step (linear_failure.h)
-  PetscCall(PCSetFailedReason(pc, singular ? PC_FACTOR_NUMERIC_ZEROPIVOT : PC_NOERROR));
+  // a failure, not an error: the Newton solve cuts its step (linear_failure.h); on
+  // every rank, as the failure walk may run on any one alone
+  MPI_Comm comm = PetscObjectComm((PetscObject)pc);
+  int any_singular = singular;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &any_singular, 1, MPI_INT, MPI_LOR, comm));
+  PetscCall(PCSetFailedReason(pc, any_singular ? PC_FACTOR_NUMERIC_ZEROPIVOT : PC_NOERROR));
+  long local[2] = {long(s.offsets.size()) - 1, long(s.largest)};
+  PetscCallMPI(MPI_Allreduce(&local[0], &s.total_patches, 1, MPI_LONG, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(&local[1], &s.total_largest, 1, MPI_LONG, MPI_MAX, comm));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode apply(PC pc, Vec x, Vec y)
+/// PETSc calls through C: no exception may leave
+PetscErrorCode setup(PC pc)
+{
+  try
+  {
+    return setup_patches(pc);
+  }
+  catch (const std::bad_alloc&)
+  {
+    SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MEM, "vertex stars: out of memory for the blocks' inverses");
+  }
+}
+
+PetscErrorCode relax(PC pc, Vec x, Vec y)
 {
   PetscFunctionBeginUser;
   Stars& s = stars_of(pc);
@@ -129,7 +163,8 @@ PetscErrorCode apply(PC pc, Vec x, Vec y)
   PetscScalar* out;
   PetscCall(VecGetArrayRead(s.in, &in));
   PetscCall(VecGetArray(s.out, &out));
-  Eigen::VectorXd r(s.largest), z(s.largest);
+  std::vector<double> work(2 * s.largest); // allocated only here in the relaxation
+  Eigen::Map<Eigen::VectorXd> r(work.data(), s.largest), z(work.data() + s.largest, s.largest);
   std::size_t at = 0;
   for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
   {
@@ -151,6 +186,18 @@ PetscErrorCode apply(PC pc, Vec x, Vec y)
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode apply(PC pc, Vec x, Vec y)
+{
+  try
+  {
+    return relax(pc, x, y);
+  }
+  catch (const std::bad_alloc&)
+  {
+    SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MEM, "vertex stars: out of memory");
+  }
+}
+
 PetscErrorCode view(PC pc, PetscViewer viewer)
 {
   PetscFunctionBeginUser;
@@ -158,15 +205,19 @@ PetscErrorCode view(PC pc, PetscViewer viewer)
   PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
   if (!ascii)
     PetscFunctionReturn(0);
-  const Stars& s = stars_of(pc);
-  long local[2] = {long(s.offsets.size()) - 1, long(s.largest)}, total[2];
-  MPI_Comm comm = PetscObjectComm((PetscObject)pc);
-  MPI_Allreduce(&local[0], &total[0], 1, MPI_LONG, MPI_SUM, comm);
-  MPI_Allreduce(&local[1], &total[1], 1, MPI_LONG, MPI_MAX, comm);
+  const Stars& s = stars_of(pc); // the totals of the last set-up: no collective here
   PetscCall(PetscViewerASCIIPrintf(viewer,
                                    "  vertex stars: %ld patches, at most %ld unknowns each, "
                                    "each block inverted (dense LU), added\n",
-                                   total[0], total[1]));
+                                   s.total_patches, s.total_largest));
+  PetscFunctionReturn(0);
+}
+
+/// PCReset (KSPReset): the scatter is made again at the next set-up
+PetscErrorCode reset_pc(PC pc)
+{
+  PetscFunctionBeginUser;
+  PetscCall(reset(stars_of(pc)));
   PetscFunctionReturn(0);
 }
 
@@ -186,6 +237,7 @@ PetscErrorCode create(PC pc)
   pc->ops->setup = setup;
   pc->ops->apply = apply;
   pc->ops->view = view;
+  pc->ops->reset = reset_pc;
   pc->ops->destroy = destroy;
   PetscFunctionReturn(0);
 }
@@ -214,6 +266,7 @@ void set_star_patches(PC pc, std::span<const IS> patches)
     throw std::runtime_error("set_star_patches: PETSc could not free the old scatter");
   std::vector<PetscInt> dofs;
   s.offsets.assign(1, 0);
+  s.largest = 0;
   for (IS patch : patches)
   {
     PetscInt n;

@@ -366,7 +366,9 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   // (update_schur_preconditioner) and factored (q is small: two unknowns per
   // degree-1 node).  The kappa part is kept exactly and the pair is inf-sup
   // stable, so the count does not grow with kappa.
-  for (const char* inner : {"-fieldsplit_u_ksp_type", "-fieldsplit_q_ksp_type"})
+  // (the multigrid levels' prefixes are p-multigrid's and GAMG's alike)
+  for (const char* inner : {"-fieldsplit_u_ksp_type", "-fieldsplit_q_ksp_type",
+                            "-fieldsplit_u_mg_coarse_ksp_type", "-fieldsplit_u_mg_levels_ksp_type"})
     require_flexible_outer(inner, "Taylor-Hood preconditioner");
   MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
   update_schur_preconditioner();
@@ -433,13 +435,8 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
                     {"-fieldsplit_u_pc_type", "gamg"},
                     {"-fieldsplit_u_mg_levels_pc_type", "jacobi"}});
   set_boomeramg_defaults("-fieldsplit_u_", true);
-  if (pmg)
-  {
-    // the degree-1 level is never constrained (p-multigrid refuses a constraint)
+  if (pmg) // the degree-1 level is never constrained (p-multigrid refuses a constraint)
     set_boomeramg_defaults("-fieldsplit_u_mg_coarse_", true);
-    for (const char* inner : {"-fieldsplit_u_mg_coarse_ksp_type", "-fieldsplit_u_mg_levels_ksp_type"})
-      require_flexible_outer(inner, "p-multigrid on the displacement block");
-  }
   KSPCreate(comm, &_q_ksp);
   KSPSetOptionsPrefix(_q_ksp, "fieldsplit_q_");
   KSPSetType(_q_ksp, KSPPREONLY);
