@@ -65,7 +65,9 @@ Mat DegreeOneCoarsening::coarse_matrix(Mat A)
 {
   PetscObjectState pattern;
   MatGetNonzeroState(A, &pattern);
-  if (_coarse and pattern == _pattern)
+  PetscObjectId id;
+  PetscObjectGetId(reinterpret_cast<PetscObject>(A), &id);
+  if (_coarse and pattern == _pattern and id == _operator)
     MatPtAP(A, _P, MAT_REUSE_MATRIX, PETSC_DEFAULT, &_coarse);
   else
   {
@@ -97,6 +99,7 @@ Mat DegreeOneCoarsening::coarse_matrix(Mat A)
     MatProductNumeric(_coarse);
     MatSetNearNullSpace(_coarse, _modes);
     _pattern = pattern;
+    _operator = id;
   }
   return _coarse;
 }

@@ -45,6 +45,7 @@ private:
   Mat _coarse = nullptr;
   MatNullSpace _modes = nullptr;
   PetscObjectState _pattern = -1; ///< A's nonzero state when _coarse was made
+  PetscObjectId _operator = 0;     ///< and A itself: states of two objects do not compare
 };
 
 } // namespace muscle
