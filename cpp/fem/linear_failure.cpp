@@ -99,6 +99,17 @@ std::string failed_preconditioner(PC pc, const std::string& where)
 }
 } // namespace
 
+std::string petsc_error_message(PetscErrorCode error)
+{
+  const char* text = nullptr;
+  char* specific = nullptr;
+  PetscErrorMessage(error, &text, &specific);
+  std::string message = specific and *specific ? specific : (text ? text : "unknown");
+  while (!message.empty() and (message.back() == '\n' or message.back() == ' '))
+    message.pop_back();
+  return message;
+}
+
 void clear_preconditioner_failures(KSP ksp)
 {
   if (!ksp)
@@ -127,16 +138,8 @@ std::string describe_linear_failure(KSP ksp, PetscErrorCode error)
   PC pc;
   KSPGetPC(ksp, &pc);
   if (error)
-  {
-    const char* text = nullptr;
-    char* specific = nullptr;
-    PetscErrorMessage(error, &text, &specific);
-    std::string message = specific and *specific ? specific : (text ? text : "unknown");
-    while (!message.empty() and (message.back() == '\n' or message.back() == ' '))
-      message.pop_back();
     return std::string(type ? type : "ksp") + " stopped by a PETSc error, preconditioner "
-           + type_of(pc) + ": " + message;
-  }
+           + type_of(pc) + ": " + petsc_error_message(error);
   PetscInt its = 0;
   KSPGetIterationNumber(ksp, &its);
   std::string text = std::string(type ? type : "ksp") + " " + KSPConvergedReasons[reason]

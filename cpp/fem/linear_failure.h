@@ -15,6 +15,10 @@ namespace muscle
 /// reason), PETSc's message.  Empty when `ksp` did not fail.
 std::string describe_linear_failure(KSP ksp, PetscErrorCode error = 0);
 
+/// The message of the last PETSc error `error` (raised under
+/// PetscReturnErrorHandler), without its trailing blanks.
+std::string petsc_error_message(PetscErrorCode error);
+
 /// Fails a shell preconditioner's apply so that every Krylov method sees it: the
 /// reason on `pc`, Inf in `z`. A Krylov method learns of a preconditioner's
 /// failure only from the norm of its output (KSPCheckNorm: DIVERGED_PC_FAILED),

@@ -1,6 +1,7 @@
 #include "p_multigrid.h"
 
 #include "../common/errors.h"
+#include "linear_failure.h"
 #include "rigid_body_modes.h"
 
 #include <basix/finite-element.h>
@@ -88,13 +89,8 @@ Mat DegreeOneCoarsening::coarse_matrix(Mat A)
     const PetscErrorCode error = MatProductSetFromOptions(_coarse);
     PetscPopErrorHandler();
     if (error)
-    {
-      const char* text = nullptr;
-      char* specific = nullptr;
-      PetscErrorMessage(error, &text, &specific);
-      throw InputError(std::string("p-multigrid's Galerkin product P^T A P: ")
-                       + (specific and *specific ? specific : text));
-    }
+      throw InputError("p-multigrid's Galerkin product P^T A P: "
+                       + petsc_error_message(error));
     MatProductSymbolic(_coarse);
     MatProductNumeric(_coarse);
     MatSetNearNullSpace(_coarse, _modes);

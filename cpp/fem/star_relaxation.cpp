@@ -1,10 +1,7 @@
 #include "star_relaxation.h"
 
-#include "../common/errors.h"
-
 #include <Eigen/Dense>
 #include <algorithm>
-#include <cmath>
 #include <limits>
 #include <new>
 #include <stdexcept>
@@ -114,11 +111,11 @@ PetscErrorCode setup_patches(PC pc)
       in_patch[s.positions[begin + k]] = -1;
     // a pivot at round-off of the block's size (or NaN): singular, as PETSc's LU
     // would judge it, not an inverse of 1e17
-    const double size = m > 0 ? block.cwiseAbs().rowwise().sum().maxCoeff() : 0.0;
+    const double norm = m > 0 ? block.cwiseAbs().rowwise().sum().maxCoeff() : 0.0;
     const Eigen::PartialPivLU<Eigen::MatrixXd> lu(block);
     singular = singular
                or !(lu.matrixLU().diagonal().cwiseAbs().array()
-                    > 100 * std::numeric_limits<double>::epsilon() * size)
+                    > 100 * std::numeric_limits<double>::epsilon() * norm)
                        .all();
     block = lu.inverse();
     singular = singular or !block.allFinite();

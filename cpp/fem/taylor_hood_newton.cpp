@@ -25,7 +25,6 @@
 #include <dolfinx/la/petsc.h>
 #include <limits>
 #include <sstream>
-#include <stdexcept>
 
 using namespace dolfinx;
 
