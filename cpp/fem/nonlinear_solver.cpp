@@ -436,6 +436,10 @@ void NonlinearSolver::start_clean()
   SNESGetKSP(_snes, &outer);
   for (KSP ksp : {outer, _inner, _u_ksp, _q_ksp, _soft, _schur})
     clear_preconditioner_failures(ksp);
+  // a lagged Galerkin matrix from another step, or from the rejected iterates of
+  // a cut one, may be far from this solve's Jacobians
+  if (_coarsening)
+    _coarsening->refresh_at_next_call();
 }
 
 NewtonReport NonlinearSolver::solve()

@@ -1,6 +1,7 @@
 #include "p_multigrid.h"
 
 #include "../common/errors.h"
+#include "../common/petsc_options.h"
 #include "linear_failure.h"
 #include "rigid_body_modes.h"
 
@@ -14,6 +15,7 @@
 #include <dolfinx/la/petsc.h>
 #include <dolfinx/mesh/Mesh.h>
 #include <dolfinx/mesh/cell_types.h>
+#include <cstdlib>
 #include <numeric>
 
 using namespace dolfinx;
@@ -21,8 +23,30 @@ using namespace dolfinx;
 namespace muscle
 {
 
+namespace
+{
+/// -fieldsplit_u_mg_coarse_lag: Newton iterations per Galerkin product, 1 if not given
+PetscInt lag_option()
+{
+  const char* name = "-fieldsplit_u_mg_coarse_lag";
+  PetscBool given;
+  PetscOptionsHasName(nullptr, nullptr, name, &given);
+  if (!given)
+    return 1;
+  const std::string text = string_option(name);
+  char* end;
+  const long value = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() or *end != '\0' or value < 1 or value > 1000000)
+    throw InputError(std::string(name) + " '" + text
+                     + "': must be an integer from 1 to 1000000 (1: P^T A P at every "
+                       "Newton iteration)");
+  return value;
+}
+} // namespace
+
 DegreeOneCoarsening::DegreeOneCoarsening(std::shared_ptr<const fem::FunctionSpace> V,
                                          std::span<const std::int32_t> dirichlet_dofs)
+    : _lag(lag_option())
 {
   auto mesh = V->mesh();
   const int bs = V->dofmap()->index_map_bs();
@@ -69,7 +93,12 @@ Mat DegreeOneCoarsening::coarse_matrix(Mat A)
   PetscObjectId id;
   PetscObjectGetId(reinterpret_cast<PetscObject>(A), &id);
   if (_coarse and pattern == _pattern and id == _operator)
+  {
+    if (++_calls_since < _lag)
+      return _coarse;
+    _calls_since = 0;
     MatPtAP(A, _P, MAT_REUSE_MATRIX, PETSC_DEFAULT, &_coarse);
+  }
   else
   {
     MatDestroy(&_coarse);
@@ -94,6 +123,7 @@ Mat DegreeOneCoarsening::coarse_matrix(Mat A)
     MatProductSymbolic(_coarse);
     MatProductNumeric(_coarse);
     MatSetNearNullSpace(_coarse, _modes);
+    _calls_since = 0;
     _pattern = pattern;
     _operator = id;
   }

@@ -36,8 +36,14 @@ public:
   /// The degree-1 space (the coarse level's unknowns).
   std::shared_ptr<const dolfinx::fem::FunctionSpace> coarse_space() const { return _V1; }
   /// P^T A P for the current A: recomputed in place while A keeps its nonzero
-  /// pattern (contact can add entries: then made anew).  Owned here.
+  /// pattern (contact can add entries: then made anew), with
+  /// -fieldsplit_u_mg_coarse_lag N only at every N-th call (the calls between
+  /// return the last one unchanged, so the AMG below keeps its hierarchy: the
+  /// coarse level only preconditions, the outer Krylov method sees the true A).
+  /// Owned here.
   Mat coarse_matrix(Mat A);
+  /// The next coarse_matrix(A) recomputes, whatever the lag (a new Newton solve).
+  void refresh_at_next_call() { _calls_since = _lag - 1; }
 
 private:
   std::shared_ptr<const dolfinx::fem::FunctionSpace> _V1;
@@ -46,6 +52,8 @@ private:
   MatNullSpace _modes = nullptr;
   PetscObjectState _pattern = -1; ///< A's nonzero state when _coarse was made
   PetscObjectId _operator = 0;     ///< and A itself: states of two objects do not compare
+  PetscInt _lag = 1;               ///< -fieldsplit_u_mg_coarse_lag
+  PetscInt _calls_since = 0;       ///< calls since _coarse was last computed
 };
 
 } // namespace muscle

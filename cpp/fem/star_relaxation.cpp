@@ -20,7 +20,11 @@ struct Stars
   std::vector<PetscInt> rows;       ///< global, sorted
   VecScatter scatter = nullptr;     ///< the operator's vector -> `in` (rows)
   Vec in = nullptr, out = nullptr;
-  std::vector<PetscScalar> inverses; ///< A_p^-1, column-major, one after another
+  /// A_p^-1, column-major, one after another; if `single`, only the work space
+  /// of one block, each inverse rounded into inverses_single
+  std::vector<double> inverses;
+  std::vector<float> inverses_single;
+  bool single = true; ///< not -pc_stars_double: relax in single precision
   PetscInt largest = 0;
   long total_patches = 0, total_largest = 0; ///< over all ranks, for the view
   PetscInt local_rows = -1;                   ///< the operator's, when `scatter` was made
@@ -87,7 +91,16 @@ PetscErrorCode setup_patches(PC pc)
   std::size_t size = 0;
   for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
     size += std::size_t(s.offsets[p + 1] - s.offsets[p]) * (s.offsets[p + 1] - s.offsets[p]);
-  s.inverses.assign(size, 0.0);
+  // single precision by default: the relaxation reads the inverses at every
+  // application and is memory-bound; on the fusiform (n = 1, kappa = 1000 and 10^4)
+  // the same Krylov counts, a third of the relaxation's time (BENCHMARKS.md)
+  PetscBool keep_double = PETSC_FALSE;
+  PetscCall(PetscOptionsGetBool(((PetscObject)pc)->options, ((PetscObject)pc)->prefix,
+                                "-pc_stars_double", &keep_double, nullptr));
+  s.single = !keep_double;
+  // the double inverses are the work space of the single ones: one block at a time
+  s.inverses.assign(s.single ? std::size_t(s.largest) * s.largest : size, 0.0);
+  s.inverses_single.assign(s.single ? size : 0, 0.0f);
   std::size_t at = 0;
   bool singular = false;
   for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
@@ -95,7 +108,8 @@ PetscErrorCode setup_patches(PC pc)
     const PetscInt begin = s.offsets[p], m = s.offsets[p + 1] - begin;
     for (PetscInt k = 0; k < m; ++k)
       in_patch[s.positions[begin + k]] = k;
-    Eigen::Map<Eigen::MatrixXd> block(s.inverses.data() + at, m, m);
+    Eigen::Map<Eigen::MatrixXd> block(s.inverses.data() + (s.single ? 0 : at), m, m);
+    block.setZero();
     for (PetscInt k = 0; k < m; ++k)
     {
       PetscInt n;
@@ -119,6 +133,12 @@ PetscErrorCode setup_patches(PC pc)
                        .all();
     block = lu.inverse();
     singular = singular or !block.allFinite();
+    if (s.single)
+    {
+      Eigen::Map<Eigen::MatrixXf> rounded(s.inverses_single.data() + at, m, m);
+      rounded = block.cast<float>();
+      singular = singular or !rounded.allFinite(); // beyond float's range
+    }
     at += m * m;
   }
   PetscCall(MatDestroySubMatrices(1, &sub));
@@ -148,6 +168,29 @@ PetscErrorCode setup(PC pc)
   }
 }
 
+/// out += sum_p R_p^T A_p^-1 R_p in, with the inverses in precision T
+template <typename T>
+void add_corrections(const Stars& s, const std::vector<T>& inverses, const PetscScalar* in,
+                     PetscScalar* out)
+{
+  using Vector = Eigen::Matrix<T, Eigen::Dynamic, 1>;
+  using Matrix = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
+  std::vector<T> work(2 * s.largest); // allocated only here in the relaxation
+  Eigen::Map<Vector> r(work.data(), s.largest), z(work.data() + s.largest, s.largest);
+  std::size_t at = 0;
+  for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
+  {
+    const PetscInt begin = s.offsets[p], m = s.offsets[p + 1] - begin;
+    for (PetscInt k = 0; k < m; ++k)
+      r[k] = in[s.positions[begin + k]];
+    Eigen::Map<const Matrix> inverse(inverses.data() + at, m, m);
+    z.head(m).noalias() = inverse * r.head(m);
+    for (PetscInt k = 0; k < m; ++k)
+      out[s.positions[begin + k]] += z[k];
+    at += m * m;
+  }
+}
+
 PetscErrorCode relax(PC pc, Vec x, Vec y)
 {
   PetscFunctionBeginUser;
@@ -160,20 +203,10 @@ PetscErrorCode relax(PC pc, Vec x, Vec y)
   PetscScalar* out;
   PetscCall(VecGetArrayRead(s.in, &in));
   PetscCall(VecGetArray(s.out, &out));
-  std::vector<double> work(2 * s.largest); // allocated only here in the relaxation
-  Eigen::Map<Eigen::VectorXd> r(work.data(), s.largest), z(work.data() + s.largest, s.largest);
-  std::size_t at = 0;
-  for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
-  {
-    const PetscInt begin = s.offsets[p], m = s.offsets[p + 1] - begin;
-    for (PetscInt k = 0; k < m; ++k)
-      r[k] = in[s.positions[begin + k]];
-    Eigen::Map<const Eigen::MatrixXd> inverse(s.inverses.data() + at, m, m);
-    z.head(m).noalias() = inverse * r.head(m);
-    for (PetscInt k = 0; k < m; ++k)
-      out[s.positions[begin + k]] += z[k];
-    at += m * m;
-  }
+  if (s.single)
+    add_corrections<float>(s, s.inverses_single, in, out);
+  else
+    add_corrections<double>(s, s.inverses, in, out);
   PetscCall(VecRestoreArrayRead(s.in, &in));
   PetscCall(VecRestoreArray(s.out, &out));
   PetscCall(VecSet(y, 0.0));
@@ -205,8 +238,10 @@ PetscErrorCode view(PC pc, PetscViewer viewer)
   const Stars& s = stars_of(pc); // the totals of the last set-up: no collective here
   PetscCall(PetscViewerASCIIPrintf(viewer,
                                    "  vertex stars: %ld patches, at most %ld unknowns each, "
-                                   "each block inverted (dense LU), added\n",
-                                   s.total_patches, s.total_largest));
+                                   "each block inverted (dense LU, kept in %s precision), "
+                                   "added\n",
+                                   s.total_patches, s.total_largest,
+                                   s.single ? "single" : "double"));
   PetscFunctionReturn(0);
 }
 

@@ -13,6 +13,9 @@ namespace muscle
 /// the inverses in one array: on p-multigrid's Q2 level of the fusiform muscle
 /// PCASM's per-block vectors, scatters and solvers took longer than the
 /// relaxation's arithmetic (BENCHMARKS.md, "Preconditioners against kappa").
+/// The inverses are computed in double, then kept and applied in single
+/// precision unless -pc_stars_double is given: a smoother's precision, half the
+/// bytes read and twice the SIMD width.
 inline constexpr const char* PCSTARS = "stars";
 
 /// Makes "stars" a PETSc preconditioner type (-*_pc_type stars).  Idempotent.

@@ -293,8 +293,9 @@ std::string shortest(double x)
 
 /// BoomerAMG's defaults for a displacement operator under `prefix` (the block
 /// itself, or p-multigrid's degree-1 level); `nodal`: the operator has the block
-/// size of 3 (a constrained u has not)
-void set_boomeramg_defaults(const std::string& prefix, bool nodal)
+/// size of 3 (a constrained u has not); `interp_variant`: how the interpolation
+/// takes in the rigid-body modes (nodal only)
+void set_boomeramg_defaults(const std::string& prefix, bool nodal, const char* interp_variant)
 {
   // Its scalar defaults ignore that u has three components, and its plain nodal
   // coarsening fills the coarse operators in (2.7 GB at n = 1).  These settings
@@ -309,7 +310,8 @@ void set_boomeramg_defaults(const std::string& prefix, bool nodal)
       = {{"coarsen_type", "HMIS"}, {"interp_type", "ext+i"}, {"strong_threshold", "0.5"},
          {"agg_nl", "1"},          {"P_max", "4"}};
   if (nodal)
-    defaults.insert(defaults.end(), {{"nodal_coarsen", "6"}, {"vec_interp_variant", "2"}});
+    defaults.insert(defaults.end(),
+                    {{"nodal_coarsen", "6"}, {"vec_interp_variant", interp_variant}});
   for (const auto& [name, value] : defaults)
     set_unless_given((prefix + "pc_hypre_boomeramg_" + name).c_str(), value.c_str());
 }
@@ -404,7 +406,7 @@ void NonlinearSolver::configure_mixed_split(PC pc)
                     {"-fieldsplit_q_ksp_type", "preonly"},
                     {"-fieldsplit_q_pc_type", "lu"},
                     {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"}});
-  set_boomeramg_defaults("-fieldsplit_u_", _constraint == nullptr);
+  set_boomeramg_defaults("-fieldsplit_u_", _constraint == nullptr, "2");
 }
 
 void NonlinearSolver::configure_mixed_shell(PC pc)
@@ -433,9 +435,13 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
                     {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"},
                     {"-fieldsplit_u_pc_type", "gamg"},
                     {"-fieldsplit_u_mg_levels_pc_type", "jacobi"}});
-  set_boomeramg_defaults("-fieldsplit_u_", true);
-  if (pmg) // the degree-1 level is never constrained (p-multigrid refuses a constraint)
-    set_boomeramg_defaults("-fieldsplit_u_mg_coarse_", true);
+  set_boomeramg_defaults("-fieldsplit_u_", true, "2");
+  // variant 1 on the degree-1 level: on the bending cantilever 92.5 Krylov its per
+  // Newton it against variant 2's 111.5 (0 and 3: 264, 275), on the fusiform even
+  // (BENCHMARKS.md, "Preconditioners against kappa"); the degree-1 level is never
+  // constrained (p-multigrid refuses a constraint)
+  if (pmg)
+    set_boomeramg_defaults("-fieldsplit_u_mg_coarse_", true, "1");
   KSPCreate(comm, &_q_ksp);
   KSPSetOptionsPrefix(_q_ksp, "fieldsplit_q_");
   KSPSetType(_q_ksp, KSPPREONLY);

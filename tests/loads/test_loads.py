@@ -289,7 +289,8 @@ def test_taylor_hood_two_ranks(build, scratch):
     block, -fieldsplit_u_pc_type mg; and with the augmented-Lagrangian blocks, -al_gamma,
     under GAMG, under p-multigrid and under p-multigrid relaxing on vertex stars above
     BoomerAMG, -fieldsplit_u_mg_levels_pc_type stars -fieldsplit_u_mg_coarse_pc_type
-    hypre): the same tip.  The preconditioner does not change
+    hypre, its Q1 matrix made at every other Newton iteration only,
+    -fieldsplit_u_mg_coarse_lag 2): the same tip.  The preconditioner does not change
     the system, so a wrong block (a sign, a transpose, W^-1 on the wrong rows) shows as
     GMRES failing within its 2000 iterations or a different tip."""
     tips = []
@@ -299,7 +300,8 @@ def test_taylor_hood_two_ranks(build, scratch):
             (2, "gmres-schur", ["solver.petsc=-al_gamma 10 -fieldsplit_u_pc_type mg"]),
             (2, "gmres-schur", ["solver.petsc=-al_gamma 1 -fieldsplit_u_pc_type mg "
                                 "-fieldsplit_u_mg_levels_pc_type stars "
-                                "-fieldsplit_u_mg_coarse_pc_type hypre -ksp_view"]))
+                                "-fieldsplit_u_mg_coarse_pc_type hypre "
+                                "-fieldsplit_u_mg_coarse_lag 2 -ksp_view"]))
     views = []
     for i, (ranks, solver, petsc) in enumerate(runs):
         out = os.path.join(scratch, f"{i}_np{ranks}_{solver}")
@@ -323,9 +325,11 @@ def test_taylor_hood_two_ranks(build, scratch):
     # a star per vertex of the 20 x 2 x 2 cells (size 5 mm), at most one more block per rank
     patches = int(re.search(r"vertex stars: (\d+) patches, at most (\d+)", smoother).group(1))
     assert 21 * 3 * 3 <= patches <= 21 * 3 * 3 + 2, smoother
-    # BoomerAMG on the Q1 level with the settings for systems, on its three components
+    # BoomerAMG on the Q1 level with the settings for systems, on its three components;
+    # interpolation variant 1 there (2 on the whole block)
     coarse = views[6][views[6].index("(fieldsplit_u_mg_coarse_)"):fine]
-    for line in ("HMIS", "ext+i", "HYPRE_BOOMERAMGSetNodal() 6", "bs=3"):
+    for line in ("HMIS", "ext+i", "HYPRE_BOOMERAMGSetNodal() 6", "InterpVecVariant() 1",
+                 "bs=3"):
         assert line in coarse, (line, coarse)
 
 
@@ -441,6 +445,17 @@ def test_taylor_hood_al_gamma_must_be_positive(build, scratch):
         "time.end=0.2", "solver.linear=gmres-schur", "solver.petsc=-al_gamma -1"])
     assert result.returncode == 2, result.stdout + result.stderr
     assert "-al_gamma '-1'" in result.stderr and "> 0" in result.stderr, result.stderr
+
+
+def test_taylor_hood_coarse_lag_must_be_positive(build, scratch):
+    """p-multigrid's lag counts Newton iterations between Galerkin products: 0 is refused
+    by name, with the value and what is allowed."""
+    result = muscle_run(build, CANTILEVER, scratch, QUIET + TAYLOR_HOOD + [
+        "time.end=0.2", "solver.linear=gmres-schur",
+        "solver.petsc=-fieldsplit_u_pc_type mg -fieldsplit_u_mg_coarse_lag 0"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "-fieldsplit_u_mg_coarse_lag '0'" in result.stderr \
+        and "from 1 to 1000000" in result.stderr, result.stderr
 
 
 @pytest.mark.parametrize("sets, says", [
