@@ -246,6 +246,19 @@ RUNS = {
                            ("ktam", "_al_gamma1_fieldsplit_u_pc_typemg"),
                            ("ktg03", "_al_gamma0.3"), ("ktg3", "_al_gamma3"))
        for n in (1, 2)},
+    # the augmented block under p-multigrid with vertex stars on Q2 and BoomerAMG on Q1
+    # (kts); n = 1, and n = 2 at kappa = 1000
+    **{f"kts{n if n > 1 else ''}_k{k}":
+       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
+       "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
+       "_fieldsplit_u_mg_coarse_pc_typehypre"
+       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,))) for k in kappas},
+    # and with the Q1 matrix made at every other Newton iteration (ktl)
+    **{f"ktl{n if n > 1 else ''}_k{k}":
+       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
+       "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
+       "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2"
+       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,))) for k in kappas},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -737,6 +750,19 @@ KAPPA_CANDIDATES = {
         "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type hypre")),
     "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid": (
         "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg")),
+    # p-multigrid on the augmented block with vertex stars relaxing Q2 (kept in single
+    # precision) and BoomerAMG for systems on Q1 (interpolation variant 1)
+    "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG": (
+        "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
+                        "-fieldsplit_u_mg_levels_pc_type stars",
+                        "-fieldsplit_u_mg_coarse_pc_type hypre")),
+    # the same with the Galerkin Q1 matrix (and BoomerAMG's hierarchy) made at every
+    # other Newton iteration only
+    "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG, lag 2": (
+        "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
+                        "-fieldsplit_u_mg_levels_pc_type stars",
+                        "-fieldsplit_u_mg_coarse_pc_type hypre",
+                        "-fieldsplit_u_mg_coarse_lag 2")),
     "Taylor-Hood, Schur split, p-multigrid, exact Q1": (
         "gmres-schur", ("-fieldsplit_u_pc_type mg", "-fieldsplit_u_mg_coarse_pc_type lu",
                         "-fieldsplit_u_mg_coarse_pc_factor_mat_solver_type mumps")),

@@ -50,8 +50,9 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
   report    benchmarks/results.json and docs/images/speed_accuracy*.png from
-            everything measured in WORK (results.json is kept when WORK has no runs),
-            then BENCHMARKS.md from results.json (benchmarks/report.py)
+            everything measured in WORK (WORK's runs replace those of the same name,
+            the others are kept), then BENCHMARKS.md from results.json
+            (benchmarks/report.py)
 
 Every fusiform run goes to WORK/runs/NAME (summary.json, series.csv, time.txt with
 peak RSS, loadavg before/after); --reuse keeps completed runs.  Each phase stores its
@@ -1188,6 +1189,17 @@ def update_results(args, data):
         for key, value in old.items():
             if not results.get(key):  # e.g. instruction counts not re-measured
                 results[key] = value
+            elif key == "machine" and all(value.get(k) == results[key].get(k)
+                                          for k in ("Model name", "CPU(s)", "hostname")):
+                # the same machine: what lscpu did not print this time (caches) stays
+                results[key] = {**value, **results[key]}
+            elif isinstance(value, list) and all(isinstance(r, dict) and "name" in r
+                                                 for r in value + results[key]):
+                # runs by name: WORK's replace the old ones, the others stay (a WORK
+                # that holds only a few new runs keeps every earlier one)
+                merged = {r["name"]: r for r in value}
+                merged.update({r["name"]: r for r in results[key]})
+                results[key] = list(merged.values())
         # the old file's order first: a diff shows what changed, not what moved
         results = {**{k: results[k] for k in old}, **results}
     with open(args.results, "w") as f:
