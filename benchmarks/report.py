@@ -247,17 +247,13 @@ RUNS = {
                            ("ktg03", "_al_gamma0.3"), ("ktg3", "_al_gamma3"))
        for n in (1, 2)},
     # the augmented block under p-multigrid with vertex stars on Q2 and BoomerAMG on Q1
-    # (kts); n = 1, and n = 2 at kappa = 1000
-    **{f"kts{n if n > 1 else ''}_k{k}":
+    # (kts), and with the Q1 matrix made at every other Newton iteration (ktl); n = 1,
+    # and n = 2 at kappa = 1000
+    **{f"{key}{n if n > 1 else ''}_k{k}":
        f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
        "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
-       "_fieldsplit_u_mg_coarse_pc_typehypre"
-       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,))) for k in kappas},
-    # and with the Q1 matrix made at every other Newton iteration (ktl)
-    **{f"ktl{n if n > 1 else ''}_k{k}":
-       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
-       "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
-       "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2"
+       f"_fieldsplit_u_mg_coarse_pc_typehypre{suffix}"
+       for key, suffix in (("kts", ""), ("ktl", "_fieldsplit_u_mg_coarse_lag2"))
        for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,))) for k in kappas},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",

@@ -20,8 +20,7 @@ struct Stars
   std::vector<PetscInt> rows;       ///< global, sorted
   VecScatter scatter = nullptr;     ///< the operator's vector -> `in` (rows)
   Vec in = nullptr, out = nullptr;
-  /// A_p^-1, column-major, one after another; if `single`, only the work space
-  /// of one block, each inverse rounded into inverses_single
+  /// A_p^-1, column-major, one after another: in double or, if `single`, rounded
   std::vector<double> inverses;
   std::vector<float> inverses_single;
   bool single = true; ///< not -pc_stars_double: relax in single precision
@@ -98,9 +97,9 @@ PetscErrorCode setup_patches(PC pc)
   PetscCall(PetscOptionsGetBool(((PetscObject)pc)->options, ((PetscObject)pc)->prefix,
                                 "-pc_stars_double", &keep_double, nullptr));
   s.single = !keep_double;
-  // the double inverses are the work space of the single ones: one block at a time
-  s.inverses.assign(s.single ? std::size_t(s.largest) * s.largest : size, 0.0);
+  s.inverses.assign(s.single ? 0 : size, 0.0);
   s.inverses_single.assign(s.single ? size : 0, 0.0f);
+  std::vector<double> work(s.single ? std::size_t(s.largest) * s.largest : 0);
   std::size_t at = 0;
   bool singular = false;
   for (std::size_t p = 0; p + 1 < s.offsets.size(); ++p)
@@ -108,7 +107,8 @@ PetscErrorCode setup_patches(PC pc)
     const PetscInt begin = s.offsets[p], m = s.offsets[p + 1] - begin;
     for (PetscInt k = 0; k < m; ++k)
       in_patch[s.positions[begin + k]] = k;
-    Eigen::Map<Eigen::MatrixXd> block(s.inverses.data() + (s.single ? 0 : at), m, m);
+    // a single inverse is formed in double in `work`, then rounded
+    Eigen::Map<Eigen::MatrixXd> block(s.single ? work.data() : s.inverses.data() + at, m, m);
     block.setZero();
     for (PetscInt k = 0; k < m; ++k)
     {
