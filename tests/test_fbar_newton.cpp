@@ -206,6 +206,41 @@ INSTANTIATE_TEST_SUITE_P(
              + info.param.line_search;
     });
 
+// The line search cp declares convergence itself, without the convergence test,
+// where dot(F, dx) is below its atol.  F-bar's constraint rows are tiny in that
+// product, so it can do so while theta is still away from J0(u), which the
+// convergence test refuses (seen at kappa = 10^4, PenaltySplit's free block).
+// Forced here at every Newton iteration by an atol no direction passes: the solve
+// must go on by full steps to the state the default line search reaches, not stop
+// with the constraint violated (which it did: 8.6e-3 after the first full step).
+TEST(FbarNewtonLineSearch, CpStoppingWithThetaAwayFromJ0IsFinishedByFullSteps)
+{
+  auto solve_block = [](const char* line_search_atol)
+  {
+    Block block = make_block(Model("combi"), false);
+    NewtonOptions options;
+    options.line_search = line_search_atol ? "cp" : "basic";
+    options.stagnation_window = 0;
+    if (line_search_atol)
+      PetscOptionsSetValue(nullptr, "-snes_linesearch_atol", line_search_atol);
+    NonlinearSolver solver(*block.problem, block.bcs, block.constraint, options);
+    PetscOptionsClearValue(nullptr, "-snes_linesearch_atol");
+    block.problem->set_time_factor(1.0);
+    block.lift->value = {0.05}; // a moved boundary: one full step first, theta lags J0(u)
+    const NewtonReport report = solver.solve();
+    const std::span<const double> u = block.problem->u()->x()->array();
+    return std::pair{report, std::vector<double>(u.begin(), u.end())};
+  };
+  const auto [stopped, u] = solve_block("1e300");
+  const auto [full, reference] = solve_block(nullptr);
+  ASSERT_TRUE(full.converged) << full.reason;
+  EXPECT_TRUE(stopped.converged) << stopped.reason;
+  EXPECT_LT(max_abs_diff(u, reference), 1e-8 * max_abs(reference));
+  EXPECT_GE(stopped.iterations, full.iterations); // the line search's iterations count
+  std::printf("cp stopped at every iteration: %d Newton iterations, basic %d\n",
+              stopped.iterations, full.iterations);
+}
+
 // A failed linear solve must fail only that Newton solve: the stepper cuts the
 // step and tries again with the same solver (PETSc keeps a shell
 // preconditioner's failure flag until it is cleared).  The failure is forced

@@ -222,3 +222,29 @@ TEST(LinearFailure, InnerKrylovMethodNeedsAFlexibleOuterOne)
   PetscOptionsClearValue(nullptr, "-test_inner_ksp_type");
   PetscOptionsClearValue(nullptr, "-ksp_type");
 }
+
+TEST(LinearFailure, AKrylovMethodOnOneMultigridLevelIsFoundUnderItsPrefix)
+{
+  // one level's own option, which a list of the block's options would miss; the
+  // fixed smoothers beside it and a Krylov method under another prefix pass
+  PetscOptionsSetValue(nullptr, "-test_u_mg_levels_ksp_type", "chebyshev");
+  PetscOptionsSetValue(nullptr, "-other_ksp_type", "gmres");
+  EXPECT_NO_THROW(require_flexible_outer_under("test_", "test"));
+  PetscOptionsSetValue(nullptr, "-test_u_mg_levels_3_ksp_type", "gmres");
+  try
+  {
+    require_flexible_outer_under("test_", "test");
+    ADD_FAILURE() << "level 3's GMRES under the default outer GMRES";
+  }
+  catch (const InputError& e)
+  {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("-test_u_mg_levels_3_ksp_type gmres"), std::string::npos)
+        << message;
+  }
+  PetscOptionsSetValue(nullptr, "-ksp_type", "fgmres");
+  EXPECT_NO_THROW(require_flexible_outer_under("test_", "test"));
+  for (const char* name : {"-test_u_mg_levels_ksp_type", "-test_u_mg_levels_3_ksp_type",
+                           "-other_ksp_type", "-ksp_type"})
+    PetscOptionsClearValue(nullptr, name);
+}

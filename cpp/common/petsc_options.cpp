@@ -3,6 +3,7 @@
 #include <petscsys.h>
 
 #include <algorithm>
+#include <sstream>
 #include <vector>
 
 namespace muscle
@@ -65,6 +66,20 @@ void require_flexible_outer(const char* inner, const std::string& what)
                    + what + " vary between applications; the outer one must be flexible: "
                    "add -ksp_type fgmres (or gcr); this run has -ksp_type "
                    + (outer.empty() ? "gmres (the default)" : outer));
+}
+
+void require_flexible_outer_under(const std::string& prefix, const std::string& what)
+{
+  // PETSc has no query by pattern: scan the whole database ("-name value ...")
+  char* all = nullptr;
+  PetscOptionsGetAll(nullptr, &all);
+  std::istringstream words(all ? all : "");
+  PetscFree(all);
+  const std::string start = "-" + prefix, end = "ksp_type";
+  for (std::string word; words >> word;)
+    if (word.size() >= start.size() + end.size() and word.compare(0, start.size(), start) == 0
+        and word.compare(word.size() - end.size(), end.size(), end) == 0)
+      require_flexible_outer(word.c_str(), what);
 }
 
 } // namespace muscle

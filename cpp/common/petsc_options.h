@@ -29,4 +29,9 @@ void choice_option(const char* name, std::initializer_list<const char*> allowed,
 /// pipefgmres, fbcgs, fbcgsr).
 void require_flexible_outer(const char* inner, const std::string& what);
 
+/// require_flexible_outer for every -`prefix`*ksp_type given, e.g. prefix "fieldsplit_":
+/// each solver nested in the preconditioner (a block, a multigrid level, level 3 of
+/// it alone) makes it vary when it is a Krylov method.
+void require_flexible_outer_under(const std::string& prefix, const std::string& what);
+
 } // namespace muscle

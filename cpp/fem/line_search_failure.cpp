@@ -8,6 +8,9 @@ namespace muscle
 
 std::string line_search_failure(const NewtonReport& report, const std::string& method)
 {
+  if (report.reason.find("theta away from J0(u)") != std::string::npos)
+    return "the line search (" + method + ") stopped before F-bar's constraint theta = "
+           "J0(u) was met";
   if (report.reason.find("DIVERGED_LINE_SEARCH") != std::string::npos)
     return "the line search (" + method + ") found no step that lowers the residual";
   std::vector<double> lambda = report.step_lengths;

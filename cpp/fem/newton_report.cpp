@@ -4,6 +4,8 @@
 
 #include "linear_failure.h"
 
+#include <cstdio>
+
 using namespace dolfinx;
 
 namespace muscle
@@ -30,6 +32,11 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
   }
   if (untested)
     reason = SNES_DIVERGED_LINEAR_SOLVE;
+  // nor with theta still away from J0(u), which the test refused (solve() finishes
+  // such a stop of cp with full steps, which never stop this way)
+  const bool theta_unmet = reason > 0 and stopped_short_of_theta();
+  if (theta_unmet)
+    reason = SNES_DIVERGED_LINE_SEARCH;
   report.converged = reason > 0 and !error;
   report.reason = _stagnated ? "STAGNATED (residual down by less than "
                                    + std::to_string(_options.stagnation_reduction)
@@ -45,6 +52,15 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
   else if (untested)
     report.linear_failure = "it returned a zero direction, and the line search stopped "
                             "at its initial point";
+  else if (theta_unmet)
+  {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  " (the line search stopped at its initial point, dot(F, dx) below its atol, "
+                  "with theta away from J0(u): |J0(u) - theta| = %.1e > %.1e)",
+                  _constraint_violation, _options.fbar_constraint_tolerance);
+    report.reason += text;
+  }
   else if (reason == SNES_DIVERGED_LINEAR_SOLVE)
     report.linear_failure = describe_linear_failure(linear_solver(), _linear_error);
   if (!report.linear_failure.empty() and !_shell_failure.empty())

@@ -8,6 +8,7 @@
 #include "linear_failure.h"
 #include "p_multigrid.h"
 #include "rigid_body_modes.h"
+#include "star_relaxation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -164,6 +165,27 @@ NonlinearSolver::NonlinearSolver(
   PetscOptionsHasName(nullptr, nullptr, "-ksp_gmres_restart", &restart_given);
   if (flexible and !restart_given)
     KSPGMRESSetRestart(linear, gmres_restart);
+  refuse_unread_options();
+}
+
+void NonlinearSolver::refuse_unread_options() const
+{
+  // PETSc's unused-option warning is off in our runs: the user would believe the
+  // option acted
+  const bool stars = _coarsening and string_option("-fieldsplit_u_mg_levels_pc_type") == PCSTARS;
+  const std::pair<const char*, bool> ours[] = {{"-fieldsplit_u_mg_coarse_lag", bool(_coarsening)},
+                                               {"-fieldsplit_u_mg_levels_pc_stars_double", stars}};
+  for (const auto& [name, read] : ours)
+  {
+    PetscBool given = PETSC_FALSE;
+    PetscOptionsHasName(nullptr, nullptr, name, &given);
+    if (given and !read)
+      throw InputError(std::string(name) + ": an option of p-multigrid on Taylor-Hood's "
+                       "displacement block (linear: gmres-schur, -fieldsplit_u_pc_type mg"
+                       + (name == ours[1].first ? " with -fieldsplit_u_mg_levels_pc_type stars"
+                                                : "")
+                       + "), which this run does not use; leave it out");
+  }
 }
 
 void NonlinearSolver::read_al_gamma(bool taylor_hood)
@@ -460,6 +482,8 @@ NewtonReport NonlinearSolver::solve()
   {
     start_three_field();
     error = SNESSolve(_snes, nullptr, _x_ext);
+    if (!error and stopped_short_of_theta())
+      error = finish_theta_with_full_steps();
     set_extended_state(_x_ext);
   }
   else if (_taylor_hood)

@@ -179,6 +179,8 @@ private:
   // nonlinear_solver.cpp: the linear solver of the Newton steps
   /// -al_gamma, checked against the element, the solver and a constraint
   void read_al_gamma(bool taylor_hood);
+  /// InputError for p-multigrid's own options in a run without p-multigrid.
+  void refuse_unread_options() const;
   void configure_linear_solver(KSP linear);
 
   // newton_callbacks.cpp: what SNES calls back (the residual and the Jacobian at
@@ -225,7 +227,12 @@ private:
   void set_extended_state(Vec x_ext);
   /// One full Newton step when boundary values moved (see the definition).
   void first_full_step();
-  int _full_steps = 0;
+  /// After a solve that cp stopped with theta away from J0(u): full Newton steps from
+  /// there (see the definition); PETSc's error code.
+  PetscErrorCode finish_theta_with_full_steps();
+  /// The last SNESSolve converged by the line search alone, theta away from J0(u).
+  bool stopped_short_of_theta() const;
+  int _full_steps = 0; ///< Newton iterations taken in SNESSolves before the last one
   void extended_residual(Vec F_ext);
   void assemble_three_field_jacobian();
   static PetscErrorCode condensed_solve(PC pc, Vec b, Vec y);

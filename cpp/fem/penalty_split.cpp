@@ -115,7 +115,7 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
   KSPGetPC(_soft, &pc);
   PCSetType(pc, PCGAMG);
   KSPSetFromOptions(_soft);
-  require_flexible_outer("-soft_ksp_type", "penalty split");
+  require_flexible_outer_under("soft_", "penalty split");
   VecDuplicate(_rhs, &_soft_r);
 
   PetscInt nu, nq = 0;
@@ -138,7 +138,7 @@ void NonlinearSolver::create_penalty_split(MPI_Comm comm)
     KSPGetPC(_schur, &pc);
     PCSetType(pc, PCGAMG);
     KSPSetFromOptions(_schur);
-    require_flexible_outer("-schur_ksp_type", "penalty split");
+    require_flexible_outer_under("schur_", "penalty split");
     VecCreateMPI(comm, nq, PETSC_DETERMINE, &_schur_rhs);
     VecDuplicate(_schur_rhs, &_schur_w);
   }

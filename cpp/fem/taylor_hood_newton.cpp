@@ -367,10 +367,8 @@ void NonlinearSolver::configure_mixed_split(PC pc)
   // (update_schur_preconditioner) and factored (q is small: two unknowns per
   // degree-1 node).  The kappa part is kept exactly and the pair is inf-sup
   // stable, so the count does not grow with kappa.
-  // (the multigrid levels' prefixes are p-multigrid's and GAMG's alike)
-  for (const char* inner : {"-fieldsplit_u_ksp_type", "-fieldsplit_q_ksp_type",
-                            "-fieldsplit_u_mg_coarse_ksp_type", "-fieldsplit_u_mg_levels_ksp_type"})
-    require_flexible_outer(inner, "Taylor-Hood preconditioner");
+  // (the blocks' solvers and their multigrid levels, p-multigrid's and GAMG's alike)
+  require_flexible_outer_under("fieldsplit_", "Taylor-Hood preconditioner");
   MatDuplicate(_th_blocks[2], MAT_COPY_VALUES, &_schur_pre);
   update_schur_preconditioner();
   if (_augmented or string_option("-fieldsplit_u_pc_type") == "mg")

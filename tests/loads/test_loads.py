@@ -458,6 +458,31 @@ def test_taylor_hood_coarse_lag_must_be_positive(build, scratch):
         and "from 1 to 1000000" in result.stderr, result.stderr
 
 
+@pytest.mark.parametrize("petsc", [
+    "-fieldsplit_u_mg_coarse_lag 2",
+    "-fieldsplit_u_pc_type mg -fieldsplit_u_mg_levels_pc_stars_double"])
+def test_taylor_hood_multigrid_options_only_with_their_multigrid(build, scratch, petsc):
+    """The lag of p-multigrid's Galerkin matrix without p-multigrid, double-precision
+    stars without stars: nothing would read them, and PETSc's unused-option warning is
+    off; refused by name instead of ignored."""
+    result = muscle_run(build, CANTILEVER, scratch, QUIET + TAYLOR_HOOD + [
+        "time.end=0.2", "solver.linear=gmres-schur", "solver.petsc=" + petsc])
+    assert result.returncode == 2, result.stdout + result.stderr
+    name = petsc.split()[-1] if "stars" in petsc else petsc.split()[0]
+    assert name + ": an option of p-multigrid" in result.stderr, result.stderr
+
+
+def test_taylor_hood_level_krylov_needs_flexible_outer(build, scratch):
+    """A Krylov method on one multigrid level alone makes the preconditioner vary as the
+    block's own does: under the default GMRES it is refused by its name."""
+    result = muscle_run(build, CANTILEVER, scratch, QUIET + TAYLOR_HOOD + [
+        "time.end=0.2", "solver.linear=gmres-schur",
+        "solver.petsc=-fieldsplit_u_mg_levels_1_ksp_type gmres"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "-fieldsplit_u_mg_levels_1_ksp_type gmres" in result.stderr \
+        and "-ksp_type fgmres" in result.stderr, result.stderr
+
+
 @pytest.mark.parametrize("sets, says", [
     (TAYLOR_HOOD + ["solver.linear=lu"], "this run has linear: lu"),
     (["solver.linear=gmres-gamg"], "this run has element.taylor_hood: false")])
