@@ -455,6 +455,7 @@ def make_helpers(res):
             "cantilever": lambda element, refinement: cantilever_run(raw, element, refinement),
             "cantilever_reference": lambda: cantilever_reference(raw),
             "cantilever_sweep": lambda refinement, nu: sweep_run(raw, refinement, nu),
+            "cantilever_split": lambda element, refinement: split_run(raw, element, refinement),
             "min": min, "max": max, "abs": abs, "round": round, "log2": math.log2}
 
 
@@ -1585,6 +1586,41 @@ def taylor_hood_sweep_table(res):
                        if c.get("completed") else f"exit {c.get('returncode')}" for c in cells])
     return md_table(["cells", "unknowns"]
                     + [f"lambda / mu = {ratios[nu]:.0f}" for nu in nus], rows)
+
+
+def split_run(raw, element, refinement):
+    """A run of the plain split against the stars split, with krylov_per_newton."""
+    return with_krylov_per_newton(next((r for r in cantilever_runs(raw, "cantilever_split")
+                                        if r["element"] == element
+                                        and r["refinement"] == refinement), None))
+
+
+@table
+def taylor_hood_split_table(res):
+    """The plain Schur split against the stars split on the cantilever's first two load
+    steps, by refinement: Krylov iterations per Newton iteration, wall time, peak memory,
+    and how far apart their tips are (both solve the same equations)."""
+    runs = cantilever_runs(res.raw, "cantilever_split")
+    rows = []
+    for refinement in sorted({r["refinement"] for r in runs}):
+        plain, stars = (split_run(res.raw, e, refinement)
+                        for e in ("Q2TH-schur", "Q2TH-schur-stars"))
+        row = [f"{20 * refinement} x {2 * refinement} x {2 * refinement}",
+               fmt(plain.get("unknowns") or stars.get("unknowns"), ",")]
+        for r in (plain, stars):
+            row += ([f"{r['krylov_per_newton']:.1f}", f"{r['wall_time']:.1f}",
+                     fmt(r.get("peak_rss_MiB"), ".0f")] if r.get("completed")
+                    else [f"exit {r.get('returncode')}", "-", "-"])
+        both = plain.get("tip_z") and stars.get("tip_z")
+        # series.csv writes 12 significant digits
+        apart = abs(stars["tip_z"] / plain["tip_z"] - 1) if both else None
+        row += [("-" if apart is None else fmt(apart, ".0e") if apart > 0 else "< 1e-11"),
+                f"{plain['loadavg_before'][0]:.1f} / {stars['loadavg_before'][0]:.1f}"
+                if plain.get("loadavg_before") and stars.get("loadavg_before") else "-"]
+        rows.append(row)
+    return md_table(["cells", "unknowns", "plain: Krylov / Newton", "wall [s]", "peak [MiB]",
+                     "stars: Krylov / Newton", "wall [s]", "peak [MiB]", "tips apart",
+                     "load"], rows)
 
 
 def cantilever_reference(raw):

@@ -42,7 +42,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             and the mantle (free), n = 2, 4, 6 (--reference-graded-refinements), whose
             extrapolations are the map's references
   taylor-hood  the bending cantilever, Q2 against Taylor-Hood (MUMPS, Schur split) by
-            refinement and the Schur split against lambda / mu (taylor_hood.py);
+            refinement, the Schur split against lambda / mu and against the stars
+            split by refinement (taylor_hood.py; taylor-hood-splits: that last part);
             map-taylor-hood: Taylor-Hood on the map, n = 1; map-taylor-hood-n2: its
             isometric n = 2 (418,693 unknowns) and n = 1 alike, Schur split, 2 ranks,
             linear rtol 1e-4 (not in the default list; n = 2 took 1090 s of the
@@ -1270,6 +1271,7 @@ def main():
               "stiffsoft-shoulder": lambda a, r: stiffsoft.phase(a, r, ("shoulder",)),
               "kappa": phase_kappa, "kappa-n4": phase_kappa_n4, "reference": phase_reference,
               "taylor-hood": taylor_hood.phase,
+              "taylor-hood-splits": lambda a, r: taylor_hood.phase(a, r, ("splits",)),
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

@@ -3,13 +3,15 @@ on the bending-dominated, nearly incompressible cantilever under follower pressu
 (demos/scenes/cantilever_pressure.yaml, lambda / mu = 1000, tip -0.41 L), by refinement:
 tip deflection, wall time, Newton iterations, unknowns; and the Schur split's Krylov
 iterations against lambda / mu (9 ... 9999, through Poisson's ratio) and the mesh, over the
-first three load steps.  Runs go to WORK/taylor_hood/NAME (summary.json, series.csv,
+first three load steps; and that split against the stars split (the muscle's best), by
+refinement over the first two.  Runs go to WORK/taylor_hood/NAME (summary.json, series.csv,
 time.txt, record.json); --reuse keeps completed ones."""
 import glob
 import json
 import os
 
 import stiffsoft
+from report import KAPPA_CANDIDATES
 from stiffsoft import ROOT
 
 SCENE = os.path.join(ROOT, "demos", "scenes", "cantilever_pressure.yaml")
@@ -18,6 +20,15 @@ TAYLOR_HOOD = ["element.degree=2", "element.taylor_hood=true"]
 ELEMENTS = {"Q2": (["element.degree=2"], (1, 2, 3)),
             "Q2TH": (TAYLOR_HOOD, (1, 2, 3)),
             "Q2TH-schur": (TAYLOR_HOOD + ["solver.linear=gmres-schur"], (1, 2))}
+# the plain split against p-multigrid relaxing Q2 on vertex stars (the kappa phase's
+# candidate of that name, the muscle's best), over the first two load steps by refinement
+STARS = "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG, lag 2"
+ELEMENTS["Q2TH-schur-stars"] = (
+    TAYLOR_HOOD + ["solver.linear=gmres-schur",
+                   "solver.petsc=" + " ".join(KAPPA_CANDIDATES[STARS][1])], ())
+SPLITS = ("Q2TH-schur", "Q2TH-schur-stars")
+SPLIT_REFINEMENTS = (1, 2, 4)
+SPLIT_END = 0.2
 # Poisson's ratio of the lambda / mu sweep: 2 nu / (1 - 2 nu) = 9, 99, 999 (the scene's),
 # 9999; the first three of the ten load steps (tip -0.13 L)
 SWEEP_NU = (0.45, 0.495, 0.4995, 0.49995)
@@ -52,11 +63,20 @@ def run(args, records, study, element, refinement, name, sets=(), extra=None):
     records.put("taylor_hood", r["name"], r)
 
 
-def phase(args, records):
-    for element, (_, refinements) in ELEMENTS.items():
-        for refinement in refinements:
-            run(args, records, "cantilever", element, refinement,
-                f"cantilever_{element}_r{refinement}")
+def phase(args, records, parts=("elements", "splits", "sweep")):
+    if "elements" in parts:
+        for element, (_, refinements) in ELEMENTS.items():
+            for refinement in refinements:
+                run(args, records, "cantilever", element, refinement,
+                    f"cantilever_{element}_r{refinement}")
+    if "splits" in parts:
+        for refinement in SPLIT_REFINEMENTS:
+            for element in SPLITS:
+                run(args, records, "cantilever_split", element, refinement,
+                    f"cantilever_{element}_r{refinement}_t{SPLIT_END:g}",
+                    [f"time.end={SPLIT_END:g}"])
+    if "sweep" not in parts:
+        return
     for refinement in SWEEP_REFINEMENTS:
         for nu in SWEEP_NU:
             run(args, records, "cantilever_sweep", "Q2TH-schur", refinement,
