@@ -271,8 +271,9 @@ private:
   /// p-multigrid's degree-2 level relaxed on vertex stars
   /// (-fieldsplit_u_mg_levels_pc_type stars; vertex_star.h, star_relaxation.h)
   void use_vertex_star_smoother(PC u_pc);
-  /// the displacement block's operator (and coarse level) from the current A
-  void update_mixed_shell();
+  /// the displacement block's operator (and, with `coarse`, p-multigrid's Galerkin
+  /// level) from the current A
+  void update_mixed_shell(bool coarse = true);
   /// the augmented-Lagrangian form (-al_gamma), or null
   std::unique_ptr<AugmentedLagrangian> _augmented;
   std::unique_ptr<DegreeOneCoarsening> _coarsening;

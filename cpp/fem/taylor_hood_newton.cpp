@@ -476,7 +476,10 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
   if (!pmg)
     _near_null_space = rigid_body_modes(*_problem.V(), nullptr,
                                         _options.near_null_space == "bodies");
-  update_mixed_shell();
+  // the Galerkin level waits for the first Newton iteration: a product of this
+  // Jacobian would be replaced there (each solve starts with a new one), and at n = 2
+  // it cost a numeric product, 4.8 s
+  update_mixed_shell(false);
   KSPSetFromOptions(_u_ksp);
 
   PCSetType(pc, PCSHELL);
@@ -515,7 +518,7 @@ void NonlinearSolver::use_vertex_star_smoother(PC u_pc)
     ISDestroy(&patch);
 }
 
-void NonlinearSolver::update_mixed_shell()
+void NonlinearSolver::update_mixed_shell(bool coarse)
 {
   // A changes in place; A_gamma too, but for a new object when A's nonzero pattern
   // changes, so the near-null space goes on each time (GAMG reads it at set-up)
@@ -525,7 +528,6 @@ void NonlinearSolver::update_mixed_shell()
   KSPSetOperators(_u_ksp, op, op);
   if (!_coarsening)
     return;
-  Mat coarse_matrix = _coarsening->coarse_matrix(op);
   PC u_pc;
   KSPGetPC(_u_ksp, &u_pc);
   // PCMG keeps the fine level's smoother operator and residual matrix from its
@@ -535,9 +537,12 @@ void NonlinearSolver::update_mixed_shell()
   PCMGGetSmoother(u_pc, 1, &fine);
   KSPSetOperators(fine, op, op);
   PCMGSetResidual(u_pc, 1, PCMGResidualDefault, op);
-  KSP coarse;
-  PCMGGetCoarseSolve(u_pc, &coarse);
-  KSPSetOperators(coarse, coarse_matrix, coarse_matrix);
+  if (!coarse)
+    return;
+  Mat coarse_matrix = _coarsening->coarse_matrix(op);
+  KSP coarse_solve;
+  PCMGGetCoarseSolve(u_pc, &coarse_solve);
+  KSPSetOperators(coarse_solve, coarse_matrix, coarse_matrix);
 }
 
 PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
