@@ -50,7 +50,7 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             default --map-timeout 1800)
   restore   seed WORK with the run records saved in --results (earlier sessions)
   solvers-n1, solvers-n2   the solver comparison at one refinement
-  report    benchmarks/results.json and docs/images/speed_accuracy*.png from
+  report    benchmarks/results.json and docs/images/speed_accuracy*.png, preconditioners_kappa.png from
             everything measured in WORK (WORK's runs replace those of the same name,
             the others are kept), then BENCHMARKS.md from results.json
             (benchmarks/report.py)
@@ -1206,6 +1206,74 @@ def update_results(args, data):
     with open(args.results, "w") as f:
         json.dump(results, f, indent=1)
     print(f"wrote {args.results}")
+    if results.get("kappa_runs"):
+        plot_kappa(results["kappa_runs"], os.path.join(ROOT, "docs", "images",
+                                                      "preconditioners_kappa.png"))
+
+
+# the preconditioners drawn against kappa and n: (candidate, element, colour, style)
+KAPPA_PLOTTED = (
+    ("GAMG", "Q1F", "tab:gray", "--"),
+    ("BoomerAMG, systems", "Q1F", "tab:brown", "--"),
+    ("penalty split, lower", "Q1F", "tab:blue", "-"),
+    ("Taylor-Hood, Schur split", "Q2TH", "tab:orange", "-"),
+    ("Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG, lag 2",
+     "Q2TH", "tab:green", "-"))
+
+
+def plot_kappa(runs, path):
+    """Krylov iterations per Newton iteration against kappa (n = 1) and against n
+    (kappa = 1000) for the main preconditioners, isometric COMBI on uniform meshes; a run
+    that did not finish is a cross at the top."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
+    ceiling = 700
+    for candidate, element, colour, style in KAPPA_PLOTTED:
+        mine = [r for r in runs if r.get("candidate") == candidate and r.get("element") == element
+                and r.get("case") == "isometric" and r.get("model") == "combi"
+                and len(r.get("sets", [])) == 1]
+        label = candidate.replace("Taylor-Hood, Schur split, augmented Lagrangian, ",
+                                  "Taylor-Hood, AL, ") + f" ({element})"
+        # one line per Krylov tolerance (the reference study's n = 3, 4, 6 ran at 1e-4)
+        for rtol in sorted({r.get("linear_rtol") for r in mine}, key=lambda t: -(t or 0)):
+            same = [r for r in mine if r.get("linear_rtol") == rtol]
+            suffix = "" if rtol == 1e-6 else f", linear rtol {rtol:g}"
+            for ax, chosen, x in ((axes[0], [r for r in same if r["n"] == 1],
+                                   lambda r: float(r["sets"][0].split("=")[1])),
+                                  (axes[1], [r for r in same if r["sets"] == ["kappa=1000"]
+                                             and r.get("unknowns")],
+                                   lambda r: r["unknowns"])):
+                chosen = sorted(chosen, key=x)
+                done = [r for r in chosen if r.get("completed") and r.get("krylov_per_newton")]
+                ax.plot([x(r) for r in done], [r["krylov_per_newton"] for r in done],
+                        style if not suffix else ":", marker="o" if not suffix else "s",
+                        color=colour, label=label + suffix if done else None)
+                failed = [r for r in chosen if r not in done]
+                ax.plot([x(r) for r in failed], [ceiling] * len(failed), "x", color=colour,
+                        ms=9)
+                if ax is axes[1]:
+                    for r in done:
+                        ax.annotate(f"n={r['n']}", (x(r), r["krylov_per_newton"]), fontsize=6.5,
+                                    xytext=(3, -9), textcoords="offset points", color=colour)
+    axes[0].set_xscale("log")
+    axes[0].set_xlabel("penalty kappa (n = 1)")
+    axes[1].set_xscale("log")
+    axes[1].set_xlabel("unknowns (kappa = 1000; n = 1 on one rank, larger n on two)")
+    for ax, title in ((axes[0], "against kappa"), (axes[1], "against the mesh")):
+        ax.set_yscale("log")
+        ax.set_ylim(10, ceiling * 1.3)
+        ax.set_ylabel("Krylov iterations per Newton iteration")
+        ax.set_title(f"COMBI isometric, 0 -> 0.15 s: {title}", fontsize=9)
+        ax.grid(True, which="both", lw=0.3)
+    axes[1].legend(fontsize=7, loc="lower right")
+    fig.text(0.01, 0.01, "Q1F: F-bar Q1; Q2TH: Taylor-Hood Q2-Q1; crosses at the top: the "
+             "run did not finish (solve failure or timeout); phase kappa, results.json",
+             fontsize=7)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    fig.savefig(path, dpi=110)
 
 
 def main():
