@@ -283,6 +283,35 @@ TEST(FbarNewtonRecovery, SolvesAgainAfterAFailedLinearSolve)
   }
 }
 
+// PETSc 3.18's trust region (-snes_type newtontr) never checks its linear solve: a
+// failed one gave a direction it shrank the region around until DIVERGED_TR_DELTA,
+// and the stop advised a smaller time step.  It must fail as a linear solve, named,
+// in the three-field Newton and the displacement Newton alike.  (A radius so large
+// that GMRES is not stopped at it: a Krylov solve cut at the radius is the method's.)
+TEST(FbarNewtonRecovery, TrustRegionReportsAFailedLinearSolve)
+{
+  for (bool three_field : {true, false})
+  {
+    Block block = make_block(Model("combi"), false);
+    NewtonOptions options = multigrid_options();
+    options.fbar_cell_unknowns = three_field;
+    PetscOptionsSetValue(nullptr, "-snes_type", "newtontr");
+    PetscOptionsSetValue(nullptr, "-snes_tr_delta0", "1e10");
+    NonlinearSolver solver(*block.problem, block.bcs, block.constraint, options);
+    PetscOptionsClearValue(nullptr, "-snes_type");
+    PetscOptionsClearValue(nullptr, "-snes_tr_delta0");
+    block.problem->set_time_factor(1.0);
+    block.lift->value = {0.05};
+    KSPSetTolerances(solver.linear_solver(), 1e-8, 1e-30, PETSC_DEFAULT, 1);
+    const NewtonReport report = solver.solve();
+    EXPECT_FALSE(report.converged) << three_field;
+    EXPECT_NE(report.reason.find("DIVERGED_LINEAR_SOLVE"), std::string::npos)
+        << report.reason;
+    EXPECT_NE(report.linear_failure.find("DIVERGED_ITS"), std::string::npos)
+        << report.linear_failure;
+  }
+}
+
 // Under the uniform-axial constraint GAMG works on the reduced unknowns: it must
 // get the rigid-body modes there too (without them: 479 instead of 110 Krylov
 // iterations per Newton iteration for the free fusiform muscle, n = 2).  The

@@ -86,7 +86,8 @@ void NonlinearSolver::first_full_step()
   for (std::int32_t i = 0; i < owned; ++i)
     moved = std::max(moved, std::abs(ga[i] - u->array()[i]));
   MPI_Allreduce(MPI_IN_PLACE, &moved, 1, MPI_DOUBLE, MPI_MAX, _problem.mesh()->comm());
-  if (!(moved > 0) or _options.line_search == "basic")
+  // (a trust region, -snes_type newtontr, has no line search to stall)
+  if (!(moved > 0) or _options.line_search == "basic" or line_search().empty())
     return;
   Vec start;
   VecDuplicate(_x_ext, &start);
@@ -117,7 +118,7 @@ bool NonlinearSolver::stopped_short_of_theta() const
 {
   SNESConvergedReason reason;
   SNESGetConvergedReason(_snes, &reason);
-  return reason > 0 and _test_verdict <= 0 and !_cell_unknowns.empty()
+  return reason > 0 and _test_verdict <= 0 and !_cell_unknowns.empty() and !line_search().empty()
          and !(_constraint_violation <= _options.fbar_constraint_tolerance);
 }
 

@@ -47,7 +47,9 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
   {
     // in the displacement Newton the error escapes SNES from its KSP
     report.reason = "DIVERGED_LINEAR_SOLVE";
-    report.linear_failure = describe_linear_failure(linear_solver(), error);
+    // (the trust region's check stops the solve by an error: the KSP says why)
+    report.linear_failure
+        = describe_linear_failure(linear_solver(), _trust_region_linear_failure ? 0 : error);
   }
   else if (untested)
     report.linear_failure = "it returned a zero direction, and the line search stopped "

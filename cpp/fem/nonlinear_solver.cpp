@@ -157,6 +157,10 @@ NonlinearSolver::NonlinearSolver(
     PCShellSetApply(pc, condensed_solve);
     PCShellSetName(pc, "F-bar cell unknowns eliminated around the condensed solve");
   }
+  PetscBool trust_region = PETSC_FALSE;
+  PetscObjectTypeCompare(reinterpret_cast<PetscObject>(_snes), SNESNEWTONTR, &trust_region);
+  if (trust_region)
+    KSPSetPostSolve(ksp, trust_region_linear_check, this);
   // -ksp_type fgmres replaces GMRES after configure_linear_solver set its restart:
   // keep the long restart unless the user gave one
   KSP linear = three_field ? _inner : ksp;
@@ -186,6 +190,21 @@ void NonlinearSolver::refuse_unread_options() const
                                                 : "")
                        + "), which this run does not use; leave it out");
   }
+}
+
+PetscErrorCode NonlinearSolver::trust_region_linear_check(KSP ksp, Vec, Vec, void* ctx)
+{
+  // PETSc 3.18's NEWTONTR takes any direction its KSP returns: a failed solve's
+  // (Inf from a failed shell, an unfinished Krylov iterate) shrinks the region to
+  // DIVERGED_TR_DELTA, and the stop would blame the time step.  (A Krylov solve
+  // stopped at the region's radius, KSP_CONVERGED_STEP_LENGTH, is the method's own.)
+  KSPConvergedReason reason;
+  KSPGetConvergedReason(ksp, &reason);
+  if (reason >= 0)
+    return 0;
+  static_cast<NonlinearSolver*>(ctx)->_trust_region_linear_failure = true;
+  SETERRQ(PetscObjectComm(reinterpret_cast<PetscObject>(ksp)), PETSC_ERR_NOT_CONVERGED,
+          "the linear solve failed inside the trust region");
 }
 
 void NonlinearSolver::read_al_gamma(bool taylor_hood)
@@ -452,6 +471,7 @@ void NonlinearSolver::start_clean()
   _test_verdict = SNES_CONVERGED_ITERATING;
   _shell_failure.clear();
   _linear_error = 0;
+  _trust_region_linear_failure = false;
   // a failed preconditioner keeps its failure, and KSPSetUp then fails every later
   // solve without applying it: a cut step starts clean (the shells' own solvers too)
   KSP outer;

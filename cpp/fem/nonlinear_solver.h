@@ -187,6 +187,10 @@ private:
   // an iterate, the convergence test); a non-finite value is a domain error
   static PetscErrorCode residual_callback(SNES, Vec x, Vec F, void* ctx);
   static PetscErrorCode jacobian_callback(SNES, Vec x, Mat J, Mat P, void* ctx);
+  /// After each linear solve under -snes_type newtontr, which PETSc 3.18 does not
+  /// check: a failed one stops the Newton solve as a linear failure.
+  static PetscErrorCode trust_region_linear_check(KSP ksp, Vec, Vec, void* ctx);
+  bool _trust_region_linear_failure = false;
   static PetscErrorCode convergence_test(SNES, PetscInt it, PetscReal xnorm,
                                          PetscReal ynorm, PetscReal fnorm,
                                          SNESConvergedReason* reason, void* ctx);
