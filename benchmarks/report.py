@@ -1609,7 +1609,7 @@ def taylor_hood_split_table(res):
                fmt(plain.get("unknowns") or stars.get("unknowns"), ",")]
         for r in (plain, stars):
             row += ([f"{r['krylov_per_newton']:.1f}", f"{r['wall_time']:.1f}",
-                     fmt(r.get("peak_rss_MiB"), ".0f")] if r.get("completed")
+                     fmt(r.get("peak_rss_MiB"), ".0f")] if r.get("krylov_per_newton") is not None
                     else [f"exit {r.get('returncode')}", "-", "-"])
         both = plain.get("tip_z") and stars.get("tip_z")
         # series.csv writes 12 significant digits

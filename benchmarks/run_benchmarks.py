@@ -1239,11 +1239,12 @@ def plot_kappa(runs, path):
         # one line per Krylov tolerance (the reference study's n = 3, 4, 6 ran at 1e-4)
         for rtol in sorted({r.get("linear_rtol") for r in mine}, key=lambda t: -(t or 0)):
             same = [r for r in mine if r.get("linear_rtol") == rtol]
-            suffix = "" if rtol == 1e-6 else f", linear rtol {rtol:g}"
-            for ax, chosen, x in ((axes[0], [r for r in same if r["n"] == 1],
+            suffix = ("" if rtol == 1e-6 else ", direct" if rtol is None
+                      else f", linear rtol {rtol:g}")
+            for ax, chosen, x in ((axes[0], [r for r in same if r.get("n") == 1],
                                    lambda r: float(r["sets"][0].split("=")[1])),
                                   (axes[1], [r for r in same if r["sets"] == ["kappa=1000"]
-                                             and r.get("unknowns")],
+                                             and r.get("unknowns") and r.get("n")],
                                    lambda r: r["unknowns"])):
                 chosen = sorted(chosen, key=x)
                 done = [r for r in chosen if r.get("completed") and r.get("krylov_per_newton")]

@@ -67,6 +67,35 @@ void NonlinearSolver::start_three_field()
   first_full_step();
 }
 
+namespace
+{
+/// SNESSolve with full Newton steps (line search basic) and at most `max_it`
+/// iterations; the line search's type and tolerances and the SNES's own as they were
+/// (the user's -snes_* and -snes_linesearch_* included: setting a type anew resets them).
+PetscErrorCode solve_with_full_steps(SNES snes, Vec x, PetscInt max_it)
+{
+  SNESLineSearch ls;
+  SNESGetLineSearch(snes, &ls);
+  SNESLineSearchType type;
+  SNESLineSearchGetType(ls, &type);
+  const std::string previous = type;
+  PetscReal steptol, maxstep, rtol, atol, ltol, snes_atol, snes_rtol, snes_stol;
+  PetscInt ls_max_it, snes_max_it, max_funcs;
+  SNESLineSearchGetTolerances(ls, &steptol, &maxstep, &rtol, &atol, &ltol, &ls_max_it);
+  PetscInt order;
+  SNESLineSearchGetOrder(ls, &order);
+  SNESGetTolerances(snes, &snes_atol, &snes_rtol, &snes_stol, &snes_max_it, &max_funcs);
+  SNESLineSearchSetType(ls, SNESLINESEARCHBASIC);
+  SNESSetTolerances(snes, snes_atol, snes_rtol, snes_stol, max_it, max_funcs);
+  const PetscErrorCode error = SNESSolve(snes, nullptr, x);
+  SNESLineSearchSetType(ls, previous.c_str());
+  SNESLineSearchSetTolerances(ls, steptol, maxstep, rtol, atol, ltol, ls_max_it);
+  SNESLineSearchSetOrder(ls, order);
+  SNESSetTolerances(snes, snes_atol, snes_rtol, snes_stol, snes_max_it, max_funcs);
+  return error;
+}
+} // namespace
+
 void NonlinearSolver::first_full_step()
 {
   // The three-field system keeps its Dirichlet columns (no lifting), so a
@@ -92,18 +121,9 @@ void NonlinearSolver::first_full_step()
   Vec start;
   VecDuplicate(_x_ext, &start);
   VecCopy(_x_ext, start);
-  SNESLineSearch ls;
-  SNESGetLineSearch(_snes, &ls);
-  SNESLineSearchType type;
-  SNESLineSearchGetType(ls, &type);
-  const std::string previous = type;
-  SNESLineSearchSetType(ls, SNESLINESEARCHBASIC);
-  SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0, 1, 10000);
-  const PetscErrorCode error = SNESSolve(_snes, nullptr, _x_ext);
+  const PetscErrorCode error = solve_with_full_steps(_snes, _x_ext, 1);
   SNESConvergedReason reason;
   SNESGetConvergedReason(_snes, &reason);
-  SNESLineSearchSetType(ls, previous.c_str());
-  SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0, _options.max_iterations, 10000);
   // a failed linear solve took no step; its failure must not fail the solve after it
   if (error or reason == SNES_DIVERGED_FUNCTION_DOMAIN
       or reason == SNES_DIVERGED_LINEAR_SOLVE or _non_finite)
@@ -114,12 +134,21 @@ void NonlinearSolver::first_full_step()
   VecDestroy(&start);
 }
 
+bool NonlinearSolver::zero_update() const
+{
+  Vec dx;
+  PetscReal norm = 0;
+  SNESGetSolutionUpdate(_snes, &dx);
+  return dx and !VecNorm(dx, NORM_2, &norm) and !(norm > 0);
+}
+
 bool NonlinearSolver::stopped_short_of_theta() const
 {
   SNESConvergedReason reason;
   SNESGetConvergedReason(_snes, &reason);
   return reason > 0 and _test_verdict <= 0 and !_cell_unknowns.empty() and !line_search().empty()
-         and !(_constraint_violation <= _options.fbar_constraint_tolerance);
+         and !(_constraint_violation <= _options.fbar_constraint_tolerance)
+         and !zero_update();
 }
 
 PetscErrorCode NonlinearSolver::finish_theta_with_full_steps()
@@ -128,22 +157,12 @@ PetscErrorCode NonlinearSolver::finish_theta_with_full_steps()
   // product: it can stop with the residual at round-off and theta still away from
   // J0(u) (seen at kappa = 10^4: 1.1e-10 against the tolerance 1e-10), a state the
   // convergence test refused.  Newton's full step closes the constraint.
-  PetscInt its;
+  PetscInt its, max_it;
   SNESGetIterationNumber(_snes, &its);
+  SNESGetTolerances(_snes, nullptr, nullptr, nullptr, &max_it, nullptr);
   _full_steps += its;
-  SNESLineSearch ls;
-  SNESGetLineSearch(_snes, &ls);
-  SNESLineSearchType type;
-  SNESLineSearchGetType(ls, &type);
-  const std::string previous = type;
-  SNESLineSearchSetType(ls, SNESLINESEARCHBASIC);
-  SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0,
-                    std::max<PetscInt>(1, _options.max_iterations - _full_steps), 10000);
   _test_verdict = SNES_CONVERGED_ITERATING;
-  const PetscErrorCode error = SNESSolve(_snes, nullptr, _x_ext);
-  SNESLineSearchSetType(ls, previous.c_str());
-  SNESSetTolerances(_snes, _options.atol, _options.rtol, 0.0, _options.max_iterations, 10000);
-  return error;
+  return solve_with_full_steps(_snes, _x_ext, std::max<PetscInt>(1, max_it - _full_steps));
 }
 
 NonlinearSolver::Blocks NonlinearSolver::blocks(double* array) const

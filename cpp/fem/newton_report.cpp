@@ -22,14 +22,7 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
   // where dot(F, dx) vanishes: rightly at a residual of round-off size, wrongly
   // for a zero direction, which only a failed linear solve returns (whatever its
   // Krylov method reported)
-  bool untested = false;
-  if (reason > 0 and _test_verdict <= 0)
-  {
-    Vec dx;
-    PetscReal norm = 0;
-    SNESGetSolutionUpdate(_snes, &dx);
-    untested = dx and !VecNorm(dx, NORM_2, &norm) and !(norm > 0);
-  }
+  const bool untested = reason > 0 and _test_verdict <= 0 and zero_update();
   if (untested)
     reason = SNES_DIVERGED_LINEAR_SOLVE;
   // nor with theta still away from J0(u), which the test refused (solve() finishes
@@ -49,7 +42,8 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
     report.reason = "DIVERGED_LINEAR_SOLVE";
     // (the trust region's check stops the solve by an error: the KSP says why)
     report.linear_failure
-        = describe_linear_failure(linear_solver(), _trust_region_linear_failure ? 0 : error);
+        = describe_linear_failure(linear_solver(),
+                                  _trust_region_linear_failure ? _linear_error : error);
   }
   else if (untested)
     report.linear_failure = "it returned a zero direction, and the line search stopped "
@@ -58,8 +52,8 @@ NewtonReport NonlinearSolver::outcome(PetscErrorCode error, long inner_iteration
   {
     char text[200];
     std::snprintf(text, sizeof text,
-                  " (the line search stopped at its initial point, dot(F, dx) below its atol, "
-                  "with theta away from J0(u): |J0(u) - theta| = %.1e > %.1e)",
+                  " (the solve stopped without the convergence test, the line search's own "
+                  "stop, with theta away from J0(u): |J0(u) - theta| = %.1e > %.1e)",
                   _constraint_violation, _options.fbar_constraint_tolerance);
     report.reason += text;
   }

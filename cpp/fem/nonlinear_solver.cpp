@@ -60,6 +60,10 @@ NonlinearSolver::NonlinearSolver(
       _work(_b), _work2(_b)
 {
   _options.validate();
+  refuse_unread_options(_problem.taylor_hood(),
+                        _options.fbar_cell_unknowns
+                            and std::all_of(_parts.begin(), _parts.end(),
+                                            [](auto* p) { return p->fbar(); }));
   MuscleProblem& problem = _problem;
   auto V = problem.V();
   auto map = V->dofmap()->index_map;
@@ -169,15 +173,16 @@ NonlinearSolver::NonlinearSolver(
   PetscOptionsHasName(nullptr, nullptr, "-ksp_gmres_restart", &restart_given);
   if (flexible and !restart_given)
     KSPGMRESSetRestart(linear, gmres_restart);
-  refuse_unread_options();
 }
 
-void NonlinearSolver::refuse_unread_options() const
+void NonlinearSolver::refuse_unread_options(bool taylor_hood, bool three_field) const
 {
   // PETSc's unused-option warning is off in our runs: the user would believe the
-  // option acted
-  const bool stars = _coarsening and string_option("-fieldsplit_u_mg_levels_pc_type") == PCSTARS;
-  const std::pair<const char*, bool> ours[] = {{"-fieldsplit_u_mg_coarse_lag", bool(_coarsening)},
+  // option acted (p-multigrid: configure_mixed_shell)
+  const bool pmg = taylor_hood and !three_field and _options.linear_solver == "gmres-schur"
+                   and string_option("-fieldsplit_u_pc_type") == "mg";
+  const bool stars = pmg and string_option("-fieldsplit_u_mg_levels_pc_type") == PCSTARS;
+  const std::pair<const char*, bool> ours[] = {{"-fieldsplit_u_mg_coarse_lag", pmg},
                                                {"-fieldsplit_u_mg_levels_pc_stars_double", stars}};
   for (const auto& [name, read] : ours)
   {
@@ -198,9 +203,13 @@ PetscErrorCode NonlinearSolver::trust_region_linear_check(KSP ksp, Vec, Vec, voi
   // (Inf from a failed shell, an unfinished Krylov iterate) shrinks the region to
   // DIVERGED_TR_DELTA, and the stop would blame the time step.  (A Krylov solve
   // stopped at the region's radius, KSP_CONVERGED_STEP_LENGTH, is the method's own.)
+  // (preonly sets its failure on the failing rank only: agreed over all)
   KSPConvergedReason reason;
   KSPGetConvergedReason(ksp, &reason);
-  if (reason >= 0)
+  int failed = reason < 0;
+  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_LOR,
+                PetscObjectComm(reinterpret_cast<PetscObject>(ksp)));
+  if (!failed)
     return 0;
   static_cast<NonlinearSolver*>(ctx)->_trust_region_linear_failure = true;
   SETERRQ(PetscObjectComm(reinterpret_cast<PetscObject>(ksp)), PETSC_ERR_NOT_CONVERGED,

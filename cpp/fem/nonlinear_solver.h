@@ -180,7 +180,7 @@ private:
   /// -al_gamma, checked against the element, the solver and a constraint
   void read_al_gamma(bool taylor_hood);
   /// InputError for p-multigrid's own options in a run without p-multigrid.
-  void refuse_unread_options() const;
+  void refuse_unread_options(bool taylor_hood, bool three_field) const;
   void configure_linear_solver(KSP linear);
 
   // newton_callbacks.cpp: what SNES calls back (the residual and the Jacobian at
@@ -234,8 +234,11 @@ private:
   /// After a solve that cp stopped with theta away from J0(u): full Newton steps from
   /// there (see the definition); PETSc's error code.
   PetscErrorCode finish_theta_with_full_steps();
-  /// The last SNESSolve converged by the line search alone, theta away from J0(u).
+  /// The last SNESSolve converged by the line search alone, theta away from J0(u),
+  /// after a nonzero Newton direction.
   bool stopped_short_of_theta() const;
+  /// The last Newton direction is zero (only a failed linear solve returns one).
+  bool zero_update() const;
   int _full_steps = 0; ///< Newton iterations taken in SNESSolves before the last one
   void extended_residual(Vec F_ext);
   void assemble_three_field_jacobian();

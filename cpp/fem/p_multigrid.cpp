@@ -88,46 +88,45 @@ DegreeOneCoarsening::~DegreeOneCoarsening()
 
 Mat DegreeOneCoarsening::coarse_matrix(Mat A)
 {
+  prepare(A);
+  if (++_calls_since < _lag)
+    return _coarse;
+  _calls_since = 0;
+  MatPtAP(A, _P, MAT_REUSE_MATRIX, PETSC_DEFAULT, &_coarse);
+  return _coarse;
+}
+
+void DegreeOneCoarsening::prepare(Mat A)
+{
   PetscObjectState pattern;
   MatGetNonzeroState(A, &pattern);
   PetscObjectId id;
   PetscObjectGetId(reinterpret_cast<PetscObject>(A), &id);
   if (_coarse and pattern == _pattern and id == _operator)
-  {
-    if (++_calls_since < _lag)
-      return _coarse;
-    _calls_since = 0;
-    MatPtAP(A, _P, MAT_REUSE_MATRIX, PETSC_DEFAULT, &_coarse);
-  }
-  else
-  {
-    MatDestroy(&_coarse);
-    MatProductCreate(A, _P, nullptr, &_coarse);
-    MatProductSetType(_coarse, MATPRODUCT_PtAP);
-    // on one rank, P^T (A P) formed as R A P with R = P^T explicit: 7.0 s against
-    // 16.4 s for PETSc's default over the fusiform's first step (n = 1, 8 products);
-    // on several ranks the parallel default is the fastest tried
-    int ranks;
-    MPI_Comm_size(PetscObjectComm(reinterpret_cast<PetscObject>(A)), &ranks);
-    if (ranks == 1)
-      MatProductSetAlgorithm(_coarse, "rap");
-    // -fieldsplit_u_mg_coarse_mat_product_algorithm chooses another (not -matptap_via,
-    // which PETSc reads for MatPtAP's products only)
-    MatSetOptionsPrefix(_coarse, "fieldsplit_u_mg_coarse_");
-    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-    const PetscErrorCode error = MatProductSetFromOptions(_coarse);
-    PetscPopErrorHandler();
-    if (error)
-      throw InputError("p-multigrid's Galerkin product P^T A P: "
-                       + petsc_error_message(error));
-    MatProductSymbolic(_coarse);
-    MatProductNumeric(_coarse);
-    MatSetNearNullSpace(_coarse, _modes);
-    _calls_since = 0;
-    _pattern = pattern;
-    _operator = id;
-  }
-  return _coarse;
+    return;
+  MatDestroy(&_coarse);
+  MatProductCreate(A, _P, nullptr, &_coarse);
+  MatProductSetType(_coarse, MATPRODUCT_PtAP);
+  // on one rank, P^T (A P) formed as R A P with R = P^T explicit: 7.0 s against
+  // 16.4 s for PETSc's default over the fusiform's first step (n = 1, 8 products);
+  // on several ranks the parallel default is the fastest tried
+  int ranks;
+  MPI_Comm_size(PetscObjectComm(reinterpret_cast<PetscObject>(A)), &ranks);
+  if (ranks == 1)
+    MatProductSetAlgorithm(_coarse, "rap");
+  // -fieldsplit_u_mg_coarse_mat_product_algorithm chooses another (not -matptap_via,
+  // which PETSc reads for MatPtAP's products only)
+  MatSetOptionsPrefix(_coarse, "fieldsplit_u_mg_coarse_");
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  const PetscErrorCode error = MatProductSetFromOptions(_coarse);
+  PetscPopErrorHandler();
+  if (error)
+    throw InputError("p-multigrid's Galerkin product P^T A P: " + petsc_error_message(error));
+  MatProductSymbolic(_coarse);
+  MatSetNearNullSpace(_coarse, _modes);
+  _calls_since = _lag - 1; // values at the next call
+  _pattern = pattern;
+  _operator = id;
 }
 
 } // namespace muscle

@@ -42,6 +42,9 @@ public:
   /// coarse level only preconditions, the outer Krylov method sees the true A).
   /// Owned here.
   Mat coarse_matrix(Mat A);
+  /// The product's structure for A (options checked, symbolic phase) without its
+  /// values: the next coarse_matrix(A) computes them.
+  void prepare(Mat A);
   /// The next coarse_matrix(A) recomputes, whatever the lag (a new Newton solve).
   void refresh_at_next_call() { _calls_since = _lag - 1; }
 

@@ -476,9 +476,9 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
   if (!pmg)
     _near_null_space = rigid_body_modes(*_problem.V(), nullptr,
                                         _options.near_null_space == "bodies");
-  // the Galerkin level waits for the first Newton iteration: a product of this
-  // Jacobian would be replaced there (each solve starts with a new one), and at n = 2
-  // it cost a numeric product, 4.8 s
+  // the Galerkin level's values wait for the first Newton iteration: a product of
+  // this Jacobian would be replaced there (each solve starts with a new one), and at
+  // n = 2 it cost a numeric product, 4.8 s; its structure (and options) now
   update_mixed_shell(false);
   KSPSetFromOptions(_u_ksp);
 
@@ -538,7 +538,10 @@ void NonlinearSolver::update_mixed_shell(bool coarse)
   KSPSetOperators(fine, op, op);
   PCMGSetResidual(u_pc, 1, PCMGResidualDefault, op);
   if (!coarse)
+  {
+    _coarsening->prepare(op);
     return;
+  }
   Mat coarse_matrix = _coarsening->coarse_matrix(op);
   KSP coarse_solve;
   PCMGGetCoarseSolve(u_pc, &coarse_solve);
