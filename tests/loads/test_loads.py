@@ -355,6 +355,16 @@ def test_taylor_hood_augmented_lagrangian_restores_the_block(build, scratch):
     assert per_newton["augmented"] < 0.4 * per_newton["plain"], per_newton
 
 
+def refused_split(build, out, petsc, element=TAYLOR_HOOD):
+    """stderr of the cantilever to t = 0.2 with linear: gmres-schur and solver.petsc
+    `petsc` on `element` (the Taylor-Hood keys, or ["element.degree=1"] for F-bar), a
+    run that must stop with exit 2, an input error."""
+    result = cantilever(build, out, element + [
+        "time.end=0.2", "solver.linear=gmres-schur", f"solver.petsc={petsc}"])
+    assert result.returncode == 2, result.stdout + result.stderr
+    return result.stderr
+
+
 def test_taylor_hood_inexact_inner_solve(build, scratch):
     """Three GMRES iterations on the augmented displacement block, under FGMRES: the
     inner solve stops at its iteration limit (DIVERGED_ITS), which is an approximation
@@ -375,30 +385,26 @@ def test_taylor_hood_inexact_inner_solve(build, scratch):
         assert result.returncode == 0, result.stdout + result.stderr
         tips.append(series_rows(out)[-1]["tip_z"])
     assert abs(tips[1] - tips[0]) < 1e-7 * abs(tips[0]), tips
-    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "gmres"), QUIET + TAYLOR_HOOD + [
-        "time.end=0.2", "solver.linear=gmres-schur", "solver.petsc=-fieldsplit_u_ksp_type cg"])
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert "-fieldsplit_u_ksp_type cg" in result.stderr \
-        and "-ksp_type fgmres" in result.stderr, result.stderr
+    stderr = refused_split(build, os.path.join(scratch, "gmres"), "-fieldsplit_u_ksp_type cg")
+    assert "-fieldsplit_u_ksp_type cg" in stderr and "-ksp_type fgmres" in stderr, stderr
     # p-multigrid's Q1 level, the same way
-    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "coarse"), QUIET + TAYLOR_HOOD + [
-        "time.end=0.2", "solver.linear=gmres-schur",
-        "solver.petsc=-fieldsplit_u_pc_type mg -fieldsplit_u_mg_coarse_ksp_type gmres"])
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert "-fieldsplit_u_mg_coarse_ksp_type gmres" in result.stderr \
-        and "Taylor-Hood preconditioner" in result.stderr, result.stderr
+    stderr = refused_split(build, os.path.join(scratch, "coarse"),
+                           "-fieldsplit_u_pc_type mg -fieldsplit_u_mg_coarse_ksp_type gmres")
+    assert "-fieldsplit_u_mg_coarse_ksp_type gmres" in stderr \
+        and "Taylor-Hood preconditioner" in stderr, stderr
+    # one multigrid level alone, the same way (every -fieldsplit_*ksp_type is checked)
+    stderr = refused_split(build, os.path.join(scratch, "level"),
+                           "-fieldsplit_u_mg_levels_1_ksp_type gmres")
+    assert "-fieldsplit_u_mg_levels_1_ksp_type gmres" in stderr \
+        and "-ksp_type fgmres" in stderr, stderr
     # the F-bar penalty split's soft block, the same way
-    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "soft"), QUIET + [
-        "element.degree=1", "time.end=0.2", "solver.linear=gmres-schur",
-        "solver.petsc=-soft_ksp_type cg"])
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert "-soft_ksp_type cg" in result.stderr and "penalty split" in result.stderr \
-        and "-ksp_type fgmres" in result.stderr, result.stderr
-    result = muscle_run(build, CANTILEVER, os.path.join(scratch, "schur"), QUIET + [
-        "element.degree=1", "time.end=0.2", "solver.linear=gmres-schur",
-        "solver.petsc=-penalty_split_schur sparse -schur_ksp_type gmres"])
-    assert result.returncode == 2 and "-schur_ksp_type gmres" in result.stderr, \
-        result.stdout + result.stderr
+    fbar = ["element.degree=1"]
+    stderr = refused_split(build, os.path.join(scratch, "soft"), "-soft_ksp_type cg", fbar)
+    assert "-soft_ksp_type cg" in stderr and "penalty split" in stderr \
+        and "-ksp_type fgmres" in stderr, stderr
+    stderr = refused_split(build, os.path.join(scratch, "schur"),
+                           "-penalty_split_schur sparse -schur_ksp_type gmres", fbar)
+    assert "-schur_ksp_type gmres" in stderr, stderr
 
 
 def test_taylor_hood_failed_inner_solve_cuts_the_step(build, scratch):
@@ -441,21 +447,16 @@ def test_taylor_hood_al_gamma_must_be_positive(build, scratch):
     """-al_gamma is the penalty over the shear modulus at rest: 0 or less is refused by
     name, with the value and what is allowed (a negative number in solver.petsc is a
     value, not the next option's name)."""
-    result = muscle_run(build, CANTILEVER, scratch, QUIET + TAYLOR_HOOD + [
-        "time.end=0.2", "solver.linear=gmres-schur", "solver.petsc=-al_gamma -1"])
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert "-al_gamma '-1'" in result.stderr and "> 0" in result.stderr, result.stderr
+    stderr = refused_split(build, scratch, "-al_gamma -1")
+    assert "-al_gamma '-1'" in stderr and "> 0" in stderr, stderr
 
 
 def test_taylor_hood_coarse_lag_must_be_positive(build, scratch):
     """p-multigrid's lag counts Newton iterations between Galerkin products: 0 is refused
     by name, with the value and what is allowed."""
-    result = muscle_run(build, CANTILEVER, scratch, QUIET + TAYLOR_HOOD + [
-        "time.end=0.2", "solver.linear=gmres-schur",
-        "solver.petsc=-fieldsplit_u_pc_type mg -fieldsplit_u_mg_coarse_lag 0"])
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert "-fieldsplit_u_mg_coarse_lag '0'" in result.stderr \
-        and "from 1 to 1000000" in result.stderr, result.stderr
+    stderr = refused_split(build, scratch,
+                           "-fieldsplit_u_pc_type mg -fieldsplit_u_mg_coarse_lag 0")
+    assert "-fieldsplit_u_mg_coarse_lag '0'" in stderr and "from 1 to 1000000" in stderr, stderr
 
 
 @pytest.mark.parametrize("petsc", [
@@ -465,22 +466,9 @@ def test_taylor_hood_multigrid_options_only_with_their_multigrid(build, scratch,
     """The lag of p-multigrid's Galerkin matrix without p-multigrid, double-precision
     stars without stars: nothing would read them, and PETSc's unused-option warning is
     off; refused by name instead of ignored."""
-    result = muscle_run(build, CANTILEVER, scratch, QUIET + TAYLOR_HOOD + [
-        "time.end=0.2", "solver.linear=gmres-schur", "solver.petsc=" + petsc])
-    assert result.returncode == 2, result.stdout + result.stderr
+    stderr = refused_split(build, scratch, petsc)
     name = petsc.split()[-1] if "stars" in petsc else petsc.split()[0]
-    assert name + ": an option of p-multigrid" in result.stderr, result.stderr
-
-
-def test_taylor_hood_level_krylov_needs_flexible_outer(build, scratch):
-    """A Krylov method on one multigrid level alone makes the preconditioner vary as the
-    block's own does: under the default GMRES it is refused by its name."""
-    result = muscle_run(build, CANTILEVER, scratch, QUIET + TAYLOR_HOOD + [
-        "time.end=0.2", "solver.linear=gmres-schur",
-        "solver.petsc=-fieldsplit_u_mg_levels_1_ksp_type gmres"])
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert "-fieldsplit_u_mg_levels_1_ksp_type gmres" in result.stderr \
-        and "-ksp_type fgmres" in result.stderr, result.stderr
+    assert name + ": an option of p-multigrid" in stderr, stderr
 
 
 @pytest.mark.parametrize("sets, says", [
