@@ -248,13 +248,14 @@ RUNS = {
        for n in (1, 2)},
     # the augmented block under p-multigrid with vertex stars on Q2 and BoomerAMG on Q1
     # (kts), and with the Q1 matrix made at every other Newton iteration (ktl); n = 1,
-    # and n = 2 at kappa = 1000
+    # and n = 2 at kappa = 1000 (kts) and 10 ... 10^4 (ktl)
     **{f"{key}{n if n > 1 else ''}_k{k}":
        f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
        "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
        f"_fieldsplit_u_mg_coarse_pc_typehypre{suffix}"
-       for key, suffix in (("kts", ""), ("ktl", "_fieldsplit_u_mg_coarse_lag2"))
-       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,))) for k in kappas},
+       for key, suffix, n2 in (("kts", "", (1000,)),
+                               ("ktl", "_fieldsplit_u_mg_coarse_lag2", (1000,)))
+       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, n2)) for k in kappas},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -692,6 +693,9 @@ SOLVER_NAMES = {"lu": "MUMPS", "gmres-gamg": "GAMG", "gmres-hypre": "BoomerAMG"}
 # Preconditioners against the penalty (issue 18): which of the standard ones for nearly
 # incompressible elasticity keeps the Krylov count flat in kappa and n.  Name -> (linear
 # solver, PETSc options), in the page's order; MUMPS is the reference F33.
+# the muscle's best split: p-multigrid relaxing Q2 on vertex stars above BoomerAMG on
+# Q1, augmented, its Q1 matrix made at every other Newton iteration
+STARS_CANDIDATE = "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG, lag 2"
 KAPPA_CANDIDATES = {
     "MUMPS": ("lu", ()),
     "GAMG": ("gmres-gamg", ()),
@@ -755,7 +759,7 @@ KAPPA_CANDIDATES = {
                         "-fieldsplit_u_mg_coarse_pc_type hypre")),
     # the same with the Galerkin Q1 matrix (and BoomerAMG's hierarchy) made at every
     # other Newton iteration only
-    "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG, lag 2": (
+    STARS_CANDIDATE: (
         "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
                         "-fieldsplit_u_mg_levels_pc_type stars",
                         "-fieldsplit_u_mg_coarse_pc_type hypre",
@@ -1563,29 +1567,40 @@ def cantilever_run(raw, element, refinement):
                                         and r["refinement"] == refinement), None))
 
 
-def sweep_run(raw, refinement, nu):
-    """A run of the Schur split's lambda / mu sweep, with krylov_per_newton."""
+SPLIT_NAMES = {"Q2TH-schur": "plain", "Q2TH-schur-stars": "stars"}
+
+
+def sweep_run(raw, refinement, nu, element="Q2TH-schur"):
+    """A run of a split's lambda / mu sweep, with krylov_per_newton."""
     return with_krylov_per_newton(next((r for r in cantilever_runs(raw, "cantilever_sweep")
-                                        if r["refinement"] == refinement and r["nu"] == nu),
-                                       None))
+                                        if r["refinement"] == refinement and r["nu"] == nu
+                                        and r["element"] == element), None))
 
 
 @table
 def taylor_hood_sweep_table(res):
-    """The Schur split's Krylov iterations per Newton iteration against lambda / mu and
-    the mesh (the cantilever's first three load steps)."""
+    """The plain and the stars splits' Newton iterations / Krylov iterations per Newton
+    iteration against lambda / mu and the mesh (the cantilever's first three load steps),
+    and wall times."""
     runs = cantilever_runs(res.raw, "cantilever_sweep")
     ratios = {r["nu"]: r["lambda_over_mu"] for r in runs}
     nus = sorted(ratios)
     rows = []
-    for refinement in sorted({r["refinement"] for r in runs}):
-        cells = [sweep_run(res.raw, refinement, nu) for nu in nus]
-        rows.append([f"{20 * refinement} x {2 * refinement} x {2 * refinement}",
-                     fmt(next((c.get("unknowns") for c in cells if c.get("unknowns")), None), ",")]
-                    + [f"{c['newton_iterations']} / {c['krylov_per_newton']:.0f}"
-                       if c.get("completed") else f"exit {c.get('returncode')}" for c in cells])
-    return md_table(["cells", "unknowns"]
-                    + [f"lambda / mu = {ratios[nu]:.0f}" for nu in nus], rows)
+    for element in SPLIT_NAMES:
+        for refinement in sorted({r["refinement"] for r in runs if r["element"] == element}):
+            cells = [sweep_run(res.raw, refinement, nu, element) for nu in nus]
+            walls = [c["wall_time"] for c in cells if c.get("completed")]
+            rows.append([SPLIT_NAMES[element],
+                         f"{20 * refinement} x {2 * refinement} x {2 * refinement}",
+                         fmt(next((c.get("unknowns") for c in cells if c.get("unknowns")),
+                                  None), ",")]
+                        + [f"{c['newton_iterations']} / {c['krylov_per_newton']:.0f}"
+                           if c.get("completed")
+                           else "not run" if not c.get("name") else f"exit {c.get('returncode')}"
+                           for c in cells]
+                        + [f"{min(walls):.1f}-{max(walls):.1f}" if walls else "-"])
+    return md_table(["split", "cells", "unknowns"]
+                    + [f"lambda / mu = {ratios[nu]:.0f}" for nu in nus] + ["wall [s]"], rows)
 
 
 def split_run(raw, element, refinement):

@@ -35,6 +35,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             displacement block), n = 1 on one rank and n = 2 on two
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
             (full factor at linear rtol 1e-6, lower at 1e-4, lower with SSOR levels at 1e-4)
+  kappa-free  the plain and the stars Taylor-Hood splits on the free contraction,
+            kappa = 1000, n = 1 on one rank and 2 on two (--kappa-refinements)
   reference  the references of F33 and epsilon: F-bar at n = 3 and 6, isometric and free,
             with the n = 4 runs' settings (--reference-refinements; n = 2, 4, 6 are one
             family of similar meshes, n = 3 checks the extrapolation; n = 6 has 1.3 M
@@ -42,8 +44,9 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             and the mantle (free), n = 2, 4, 6 (--reference-graded-refinements), whose
             extrapolations are the map's references
   taylor-hood  the bending cantilever, Q2 against Taylor-Hood (MUMPS, Schur split) by
-            refinement, the Schur split against lambda / mu and against the stars
-            split by refinement (taylor_hood.py; taylor-hood-splits: that last part);
+            refinement, the Schur and the stars splits against lambda / mu and the mesh,
+            and side by side by refinement (taylor_hood.py; taylor-hood-sweep and
+            taylor-hood-splits: those two parts);
             map-taylor-hood: Taylor-Hood on the map, n = 1; map-taylor-hood-n2: its
             isometric n = 2 (418,693 unknowns) and n = 1 alike, Schur split, 2 ranks,
             linear rtol 1e-4 (not in the default list; n = 2 took 1090 s of the
@@ -74,7 +77,7 @@ import time
 import report
 import stiffsoft
 import taylor_hood
-from report import KAPPA_CANDIDATES, LINE_SEARCHES
+from report import KAPPA_CANDIDATES, LINE_SEARCHES, STARS_CANDIDATE
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -609,6 +612,18 @@ def phase_kappa_n4(args, records):
             kappa_run(args, records, label, case=case, n=4, np=2, solver="gmres-schur",
                       sets=("kappa=1000",), petsc=KAPPA_CANDIDATES[label][1], rtol=rtol,
                       timeout=args.map_timeout)
+
+
+def phase_kappa_free(args, records):
+    """The Taylor-Hood splits on the free contraction (the uniform-axial constraint: the
+    shell's blocks on T^T A T's reduced unknowns) at the preset kappa, n = 1 on one rank
+    and 2 on two (--kappa-refinements)."""
+    for n in args.kappa_refinements:
+        for label in ("Taylor-Hood, Schur split", STARS_CANDIDATE):
+            kappa_run(args, records, label, case="free", n=n, np=1 if n == 1 else 2,
+                      solver="gmres-schur", sets=("kappa=1000",),
+                      petsc=KAPPA_CANDIDATES[label][1], rtol=1e-6,
+                      timeout=KAPPA_ELEMENTS[label][2] * n ** 3)
 
 
 def phase_reference(args, records):
@@ -1217,12 +1232,11 @@ KAPPA_PLOTTED = (
     ("BoomerAMG, systems", "Q1F", "tab:brown", "--"),
     ("penalty split, lower", "Q1F", "tab:blue", "-"),
     ("Taylor-Hood, Schur split", "Q2TH", "tab:orange", "-"),
-    ("Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG, lag 2",
-     "Q2TH", "tab:green", "-"))
+    (STARS_CANDIDATE, "Q2TH", "tab:green", "-"))
 
 
 def plot_kappa(runs, path):
-    """Krylov iterations per Newton iteration against kappa (n = 1) and against n
+    """Krylov iterations per Newton iteration against kappa (n = 1 and 2) and against n
     (kappa = 1000) for the main preconditioners, isometric COMBI on uniform meshes; a run
     that did not finish is a cross at the top."""
     import matplotlib
@@ -1241,16 +1255,23 @@ def plot_kappa(runs, path):
             same = [r for r in mine if r.get("linear_rtol") == rtol]
             suffix = ("" if rtol == 1e-6 else ", direct" if rtol is None
                       else f", linear rtol {rtol:g}")
-            for ax, chosen, x in ((axes[0], [r for r in same if r.get("n") == 1],
-                                   lambda r: float(r["sets"][0].split("=")[1])),
-                                  (axes[1], [r for r in same if r["sets"] == ["kappa=1000"]
-                                             and r.get("unknowns") and r.get("n")],
-                                   lambda r: r["unknowns"])):
+            kappa = lambda r: float(r["sets"][0].split("=")[1])
+            # against kappa: n = 1 as the line, n = 2 (where run at two kappas or more)
+            # thin with triangles beside it
+            for ax, chosen, x, n2 in (
+                    (axes[0], [r for r in same if r.get("n") == 1], kappa, False),
+                    (axes[0], [r for r in same if r.get("n") == 2], kappa, True),
+                    (axes[1], [r for r in same if r["sets"] == ["kappa=1000"]
+                               and r.get("unknowns") and r.get("n")],
+                     lambda r: r["unknowns"], False)):
                 chosen = sorted(chosen, key=x)
                 done = [r for r in chosen if r.get("completed") and r.get("krylov_per_newton")]
+                if n2 and len(chosen) < 2:
+                    continue
                 ax.plot([x(r) for r in done], [r["krylov_per_newton"] for r in done],
-                        style if not suffix else ":", marker="o" if not suffix else "s",
-                        color=colour, label=label + suffix if done else None)
+                        ":" if suffix else style, marker="^" if n2 else "s" if suffix else "o",
+                        color=colour, lw=0.8 if n2 else 1.5, ms=4.5 if n2 else 6,
+                        label=None if n2 or not done else label + suffix)
                 failed = [r for r in chosen if r not in done]
                 ax.plot([x(r) for r in failed], [ceiling] * len(failed), "x", color=colour,
                         ms=9)
@@ -1259,7 +1280,7 @@ def plot_kappa(runs, path):
                         ax.annotate(f"n={r['n']}", (x(r), r["krylov_per_newton"]), fontsize=6.5,
                                     xytext=(3, -9), textcoords="offset points", color=colour)
     axes[0].set_xscale("log")
-    axes[0].set_xlabel("penalty kappa (n = 1)")
+    axes[0].set_xlabel("penalty kappa (circles n = 1 on one rank, triangles n = 2 on two)")
     axes[1].set_xscale("log")
     axes[1].set_xlabel("unknowns (kappa = 1000; n = 1 on one rank, larger n on two)")
     for ax, title in ((axes[0], "against kappa"), (axes[1], "against the mesh")):
@@ -1338,9 +1359,11 @@ def main():
               "linesearch": phase_linesearch, "fresh": phase_fresh, "stiffsoft": stiffsoft.phase,
               "stiffsoft-blocks": lambda a, r: stiffsoft.phase(a, r, ("blocks",)),
               "stiffsoft-shoulder": lambda a, r: stiffsoft.phase(a, r, ("shoulder",)),
-              "kappa": phase_kappa, "kappa-n4": phase_kappa_n4, "reference": phase_reference,
+              "kappa": phase_kappa, "kappa-n4": phase_kappa_n4, "kappa-free": phase_kappa_free,
+              "reference": phase_reference,
               "taylor-hood": taylor_hood.phase,
               "taylor-hood-splits": lambda a, r: taylor_hood.phase(a, r, ("splits",)),
+              "taylor-hood-sweep": lambda a, r: taylor_hood.phase(a, r, ("sweep",)),
               "instructions": phase_instructions, "report": phase_report}
     for phase in args.phases:
         print(f"== {phase}", flush=True)

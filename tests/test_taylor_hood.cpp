@@ -11,9 +11,11 @@
 #include "support/finite_differences.h"
 
 #include <fem/augmented_lagrangian.h>
+#include <fem/boundary.h>
 #include <fem/muscle_problem.h>
 #include <fem/p_multigrid.h>
 #include <fem/star_relaxation.h>
+#include <fem/uniform_constraint.h>
 #include <fem/vertex_star.h>
 #include <material/parameters.h>
 
@@ -25,6 +27,7 @@
 #include <dolfinx/fem/petsc.h>
 #include <dolfinx/la/petsc.h>
 #include <dolfinx/mesh/generation.h>
+#include <dolfinx/mesh/utils.h>
 #include <gtest/gtest.h>
 #include <tuple>
 #include <xtensor/xarray.hpp>
@@ -281,6 +284,98 @@ TEST(DegreeOneCoarsening, LagKeepsTheGalerkinMatrixBetweenProducts)
   coarsening.refresh_at_next_call(); // a new Newton solve
   EXPECT_NEAR(norm_of_coarse(), 4 * first, 1e-12 * first) << "after a refresh";
   MatDestroy(&A);
+}
+
+TEST(DegreeOneCoarsening, RestrictedOntoAUniformAxialConstraint)
+{
+  // The free muscle's constraint (the top face's z displacements one unknown U):
+  // R T = I; a degree-1 field whose z component is constant on the top face is a
+  // coarse function of the constrained space, so T (R P) must reproduce its
+  // degree-2 values exactly, U included; and each free dof's reduced number is
+  // the column that T copies it from.
+  Body b = make(Model("combi"));
+  auto V = b.problem->V();
+  b.mesh->topology_mutable().create_connectivity(2, 3);
+  const std::vector<std::int32_t> top = mesh::locate_entities_boundary(
+      *b.mesh, 2, [](const xt::xtensor<double, 2>& x) -> xt::xtensor<bool, 1>
+      {
+        xt::xtensor<bool, 1> marked = xt::zeros<bool>({x.shape(1)});
+        for (std::size_t i = 0; i < x.shape(1); ++i)
+          marked(i) = std::abs(x(2, i) - 1.5) < 1e-12;
+        return marked;
+      });
+  UniformDisplacementConstraint constraint(*V, component_dofs(*V, top, 2));
+  Mat T = constraint.T();
+  Mat R = constraint.restriction();
+  Mat RT;
+  MatMatMult(R, T, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &RT);
+  MatShift(RT, -1.0);
+  PetscReal off;
+  MatNorm(RT, NORM_INFINITY, &off);
+  EXPECT_LT(off, 1e-14) << "R T - I";
+  MatDestroy(&RT);
+
+  DegreeOneCoarsening coarsening(V, {});
+  coarsening.restrict_rows(R);
+  MatDestroy(&R);
+  auto g = [](double X, double Y, double Z) -> std::array<double, 3>
+  { return {1 + 2 * X - Y + 0.5 * X * Y * Z, X * Y - 3 * Z, 0.2 + X * Y * (Z - 1.5)}; };
+  fem::Function<double> coarse(std::const_pointer_cast<fem::FunctionSpace>(
+      coarsening.coarse_space()));
+  interpolate<3>(coarse, g);
+  interpolate<3>(*b.problem->u(), g);
+  Vec x = la::petsc::create_vector_wrap(*coarse.x());
+  Vec reduced = constraint.create_reduced_vector(), full;
+  MatCreateVecs(T, nullptr, &full);
+  MatMult(coarsening.prolongation(), x, reduced);
+  MatMult(T, reduced, full);
+  const PetscScalar* prolonged;
+  VecGetArrayRead(full, &prolonged);
+  PetscInt owned;
+  VecGetLocalSize(full, &owned);
+  std::span<const double> fine = b.problem->u()->x()->array();
+  double worst = 0, largest = 0;
+  for (PetscInt i = 0; i < owned; ++i)
+  {
+    worst = std::max(worst, std::abs(prolonged[i] - fine[i]));
+    largest = std::max(largest, std::abs(fine[i]));
+  }
+  VecRestoreArrayRead(full, &prolonged);
+
+  // reduced numbers: T copies a free dof from its number's column
+  VecSetRandom(reduced, nullptr);
+  MatMult(T, reduced, full);
+  const PetscScalar *xr, *xf;
+  VecGetArrayRead(reduced, &xr);
+  VecGetArrayRead(full, &xf);
+  PetscInt start, end;
+  VecGetOwnershipRange(reduced, &start, &end);
+  const std::vector<std::int64_t> numbers = constraint.reduced_numbers();
+  ASSERT_EQ(numbers.size(), std::size_t(owned));
+  std::int64_t free = 0, tied = 0;
+  for (PetscInt i = 0; i < owned; ++i)
+  {
+    if (numbers[i] < 0)
+    {
+      ++tied;
+      continue;
+    }
+    ++free;
+    ASSERT_GE(numbers[i], start);
+    ASSERT_LT(numbers[i], end);
+    EXPECT_EQ(xf[i], xr[numbers[i] - start]);
+  }
+  VecRestoreArrayRead(reduced, &xr);
+  VecRestoreArrayRead(full, &xf);
+  for (Vec* v : {&x, &reduced, &full})
+    VecDestroy(v);
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  EXPECT_EQ(free + tied, owned);
+  MPI_Allreduce(MPI_IN_PLACE, &tied, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(largest, 1.0);
+  EXPECT_LT(worst, 1e-13 * largest);
+  EXPECT_EQ(tied, 3 * 3); // the top face's degree-2 nodes (one cell)
 }
 
 TEST(VertexStar, PatchesAreTheStarsOfTheVertices)

@@ -34,6 +34,32 @@ void DisplacementConstraint::copy_free_dofs(const dolfinx::la::Vector<double>& u
       x[_reduced_index[i]] = a[i];
 }
 
+std::vector<std::int64_t> DisplacementConstraint::reduced_numbers() const
+{
+  PetscInt start, end;
+  MatGetOwnershipRangeColumn(T(), &start, &end);
+  std::vector<std::int64_t> numbers(_reduced_index.size(), -1);
+  for (std::size_t i = 0; i < _reduced_index.size(); ++i)
+    if (_reduced_index[i] >= 0)
+      numbers[i] = start + _reduced_index[i];
+  return numbers;
+}
+
+Mat DisplacementConstraint::restriction() const
+{
+  Mat TtT, R;
+  MatTransposeMatMult(T(), T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &TtT);
+  Vec d;
+  MatCreateVecs(TtT, &d, nullptr);
+  MatGetDiagonal(TtT, d);
+  VecReciprocal(d);
+  MatTranspose(T(), MAT_INITIAL_MATRIX, &R);
+  MatDiagonalScale(R, d, nullptr);
+  VecDestroy(&d);
+  MatDestroy(&TtT);
+  return R;
+}
+
 std::int64_t DisplacementConstraint::reduced_size() const
 {
   PetscInt rows, columns;

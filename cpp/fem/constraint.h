@@ -33,6 +33,18 @@ public:
   /// Number of reduced unknowns over all ranks.
   std::int64_t reduced_size() const;
 
+  /// Per owned full (unrolled) dof, the global number of the reduced unknown that
+  /// is that dof itself, or -1 where the constraint sets the dof (uniform-axial's
+  /// tied dofs, a tie's slaves): the numbering under which the vertex-star
+  /// patches of the full space become patches of T^T A T.
+  std::vector<std::int64_t> reduced_numbers() const;
+
+  /// R = diag(T^T T)^-1 T^T, reduced <- full (caller destroys it): a left inverse
+  /// of T where T^T T is diagonal (uniform-axial: the tied dofs' mean), its diagonal
+  /// approximation for a tie.  It carries p-multigrid's prolongation, made on the
+  /// full space, onto the reduced unknowns (R P).
+  Mat restriction() const;
+
   /// Whether the reduced unknowns are whole nodes, three components in a row on
   /// every rank (then T^T J T carries block size 3, as J does).
   virtual bool keeps_whole_nodes() const { return false; }

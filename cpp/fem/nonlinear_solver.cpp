@@ -231,10 +231,6 @@ void NonlinearSolver::read_al_gamma(bool taylor_hood)
                                  "split, for element.taylor_hood: true with linear: "
                                  "gmres-schur only; this run has ")
                      + (taylor_hood ? "" : "element.taylor_hood: false, ") + "linear: " + solver);
-  // B^T W^-1 B acts on the whole displacement, not on a constraint's reduced unknowns
-  if (_constraint)
-    throw InputError("-al_gamma (the augmented-Lagrangian split): not with a linear "
-                     "constraint (uniform_axial, tie); leave -al_gamma out");
   const std::string text = string_option("-al_gamma");
   char* end = nullptr;
   _al_gamma = std::strtod(text.c_str(), &end);
@@ -318,6 +314,7 @@ NonlinearSolver::~NonlinearSolver()
     MatDestroy(&M);
   for (Mat& M : _th_reduced)
     MatDestroy(&M);
+  MatDestroy(&_A_gamma_red);
   MatDestroy(&_J_nest);
   MatDestroy(&_schur_pre);
   KSPDestroy(&_u_ksp);

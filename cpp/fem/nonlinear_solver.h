@@ -278,6 +278,8 @@ private:
   /// p-multigrid's degree-2 level relaxed on vertex stars
   /// (-fieldsplit_u_mg_levels_pc_type stars; vertex_star.h, star_relaxation.h)
   void use_vertex_star_smoother(PC u_pc);
+  /// the vertex stars on T^T A T's rows (under a constraint)
+  std::vector<IS> reduced_star_patches() const;
   /// the displacement block's operator (and, with `coarse`, p-multigrid's Galerkin
   /// level) from the current A
   void update_mixed_shell(bool coarse = true);
@@ -291,9 +293,13 @@ private:
   Vec _mix_u_rhs = nullptr;
   double _al_gamma = 0;      ///< -al_gamma: the penalty over mu at rest; 0: off
   double _shear_modulus = 0; ///< of the law at rest (the Schur approximation's scale)
-  /// the coupling blocks under the constraint: T^T A_uq, A_qu T
+  /// the coupling blocks under the constraint: T^T A_uq, A_qu T (and T^T A_gamma T)
   void reduce_mixed_blocks(bool first);
   std::array<Mat, 2> _th_reduced{};
+  Mat _A_gamma_red = nullptr;       ///< T^T A_gamma T under a constraint
+  PetscObjectId _A_gamma_id = 0;    ///< the A_gamma object _A_gamma_red was made from
+  /// the coupling block i (0: A_uq, 1: A_qu) on the unknowns Newton solves for
+  Mat coupling_block(int i) const { return _constraint ? _th_reduced[i] : _th_blocks[i]; }
   bool _taylor_hood = false;
   std::unique_ptr<dolfinx::la::Vector<double>> _bq; ///< q residual, with ghosts
   std::array<Mat, 3> _th_blocks{};  ///< dR_u/dq, dR_q/du, dR_q/dq

@@ -86,6 +86,15 @@ DegreeOneCoarsening::~DegreeOneCoarsening()
   MatNullSpaceDestroy(&_modes);
 }
 
+void DegreeOneCoarsening::restrict_rows(Mat R)
+{
+  Mat RP;
+  MatMatMult(R, _P, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &RP);
+  MatDestroy(&_P);
+  _P = RP;
+  MatDestroy(&_coarse); // a product of the old P
+}
+
 Mat DegreeOneCoarsening::coarse_matrix(Mat A)
 {
   prepare(A);

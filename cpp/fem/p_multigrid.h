@@ -33,6 +33,9 @@ public:
   DegreeOneCoarsening& operator=(const DegreeOneCoarsening&) = delete;
 
   Mat prolongation() const { return _P; }
+  /// P <- R P: the prolongation onto a linear constraint's reduced unknowns (R from
+  /// DisplacementConstraint::restriction), before the product's first use.
+  void restrict_rows(Mat R);
   /// The degree-1 space (the coarse level's unknowns).
   std::shared_ptr<const dolfinx::fem::FunctionSpace> coarse_space() const { return _V1; }
   /// P^T A P for the current A: recomputed in place while A keeps its nonzero

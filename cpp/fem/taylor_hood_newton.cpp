@@ -80,6 +80,21 @@ void NonlinearSolver::reduce_mixed_blocks(bool first)
   const MatReuse reuse = first ? MAT_INITIAL_MATRIX : MAT_REUSE_MATRIX;
   MatTransposeMatMult(_constraint->T(), _th_blocks[0], reuse, PETSC_DEFAULT, &_th_reduced[0]);
   MatMatMult(_th_blocks[1], _constraint->T(), reuse, PETSC_DEFAULT, &_th_reduced[1]);
+  if (!_augmented)
+    return;
+  // A_gamma is a new object when A's pattern changed (contact): a new product then
+  Mat A_gamma = _augmented->matrix();
+  PetscObjectId id;
+  PetscObjectGetId(reinterpret_cast<PetscObject>(A_gamma), &id);
+  if (_A_gamma_red and id == _A_gamma_id)
+    MatPtAP(A_gamma, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &_A_gamma_red);
+  else
+  {
+    MatDestroy(&_A_gamma_red);
+    MatPtAP(A_gamma, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_gamma_red);
+    MatSetBlockSize(_A_gamma_red, _reduced_bs);
+    _A_gamma_id = id;
+  }
 }
 
 void NonlinearSolver::set_mixed_state(Vec x)
@@ -410,12 +425,6 @@ void NonlinearSolver::configure_mixed_split(PC pc)
 void NonlinearSolver::configure_mixed_shell(PC pc)
 {
   const bool pmg = string_option("-fieldsplit_u_pc_type") == "mg";
-  // both act on the whole displacement (the prolongation, B^T W^-1 B), not on
-  // the constraint's reduced unknowns
-  if (_constraint and pmg)
-    throw InputError("-fieldsplit_u_pc_type mg (p-multigrid on the displacement block): "
-                     "not with a linear constraint (uniform_axial, tie); use the default "
-                     "-fieldsplit_u_pc_type gamg");
   MPI_Comm comm = _problem.mesh()->comm();
   PetscInt n;
   VecGetLocalSize(_x, &n);
@@ -433,11 +442,11 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
                     {"-fieldsplit_q_pc_factor_mat_solver_type", "mumps"},
                     {"-fieldsplit_u_pc_type", "gamg"},
                     {"-fieldsplit_u_mg_levels_pc_type", "jacobi"}});
-  set_boomeramg_defaults("-fieldsplit_u_", true, "2");
+  set_boomeramg_defaults("-fieldsplit_u_", _constraint == nullptr, "2");
   // variant 1 on the degree-1 level: on the bending cantilever 92.5 Krylov its per
   // Newton it against variant 2's 111.5 (0 and 3: 264, 275), on the fusiform even
   // (BENCHMARKS.md, "Preconditioners against kappa"); the degree-1 level is never
-  // constrained (p-multigrid refuses a constraint)
+  // constrained (under a constraint P maps it onto the reduced unknowns)
   if (pmg)
     set_boomeramg_defaults("-fieldsplit_u_mg_coarse_", true, "1");
   KSPCreate(comm, &_q_ksp);
@@ -460,6 +469,12 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
       dirichlet.insert(dirichlet.end(), dofs.begin(), dofs.end());
     }
     _coarsening = std::make_unique<DegreeOneCoarsening>(_problem.V(), dirichlet);
+    if (_constraint)
+    {
+      Mat R = _constraint->restriction();
+      _coarsening->restrict_rows(R);
+      MatDestroy(&R);
+    }
     PCSetType(u_pc, PCMG);
     PCMGSetLevels(u_pc, 2, nullptr);
     PCMGSetInterpolation(u_pc, 1, _coarsening->prolongation());
@@ -474,7 +489,7 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
       use_vertex_star_smoother(u_pc);
   }
   if (!pmg)
-    _near_null_space = rigid_body_modes(*_problem.V(), nullptr,
+    _near_null_space = rigid_body_modes(*_problem.V(), _constraint.get(),
                                         _options.near_null_space == "bodies");
   // the Galerkin level's values wait for the first Newton iteration: a product of
   // this Jacobian would be replaced there (each solve starts with a new one), and at
@@ -512,17 +527,58 @@ void NonlinearSolver::use_vertex_star_smoother(PC u_pc)
   KSPGetPC(smoother, &stars);
   register_star_relaxation();
   PCSetType(stars, PCSTARS);
-  std::vector<IS> patches = vertex_star_patches(*_problem.V());
+  std::vector<IS> patches = _constraint ? reduced_star_patches()
+                                        : vertex_star_patches(*_problem.V());
   set_star_patches(stars, patches);
   for (IS& patch : patches)
     ISDestroy(&patch);
+}
+
+std::vector<IS> NonlinearSolver::reduced_star_patches() const
+{
+  // the full space's stars renumbered to T^T A T's rows, the dofs the constraint
+  // sets left out; the reduced unknowns no star holds (the uniform-axial value)
+  // one block more, so that the smoother reaches every unknown
+  const fem::FunctionSpace& V = *_problem.V();
+  la::Vector<double> numbers(V.dofmap()->index_map, V.dofmap()->index_map_bs());
+  const std::vector<std::int64_t> owned = _constraint->reduced_numbers();
+  std::copy(owned.begin(), owned.end(), numbers.mutable_array().begin());
+  numbers.scatter_fwd();
+  std::vector<std::int64_t> local(numbers.array().begin(), numbers.array().end());
+  std::vector<IS> patches = vertex_star_patches(V, local);
+  PetscInt start, end;
+  MatGetOwnershipRangeColumn(_constraint->T(), &start, &end);
+  std::vector<char> held(end - start, 0);
+  for (IS patch : patches)
+  {
+    PetscInt size;
+    const PetscInt* rows;
+    ISGetLocalSize(patch, &size);
+    ISGetIndices(patch, &rows);
+    for (PetscInt k = 0; k < size; ++k)
+      if (rows[k] >= start and rows[k] < end)
+        held[rows[k] - start] = 1;
+    ISRestoreIndices(patch, &rows);
+  }
+  std::vector<PetscInt> left;
+  for (PetscInt row = start; row < end; ++row)
+    if (!held[row - start])
+      left.push_back(row);
+  if (!left.empty())
+  {
+    IS patch;
+    ISCreateGeneral(PETSC_COMM_SELF, left.size(), left.data(), PETSC_COPY_VALUES, &patch);
+    patches.push_back(patch);
+  }
+  return patches;
 }
 
 void NonlinearSolver::update_mixed_shell(bool coarse)
 {
   // A changes in place; A_gamma too, but for a new object when A's nonzero pattern
   // changes, so the near-null space goes on each time (GAMG reads it at set-up)
-  Mat op = _augmented ? _augmented->matrix() : _A;
+  Mat op = _augmented ? (_constraint ? _A_gamma_red : _augmented->matrix())
+                      : (_constraint ? _A_red : _A);
   if (!_coarsening)
     MatSetNearNullSpace(op, _near_null_space);
   KSPSetOperators(_u_ksp, op, op);
@@ -589,12 +645,12 @@ PetscErrorCode NonlinearSolver::mixed_shell_apply(PC pc, Vec r, Vec z)
     solve(self->_q_ksp, self->_mix_q_in, self->_mix_q_out);
     agree(); // the product is collective
     if (!failed)
-      failed = MatMult(self->_th_blocks[0], self->_mix_q_out, self->_mix_u_rhs)
+      failed = MatMult(self->coupling_block(0), self->_mix_q_out, self->_mix_u_rhs)
                or VecAYPX(self->_mix_u_rhs, -1.0, self->_mix_u_in)
                or (self->_augmented
                    and self->_augmented->add_constraint_rows(
                        self->_mix_u_rhs, self->_mix_q_in, self->_mix_q_out,
-                       self->_th_blocks[1], self->_th_blocks[2]));
+                       self->coupling_block(1), self->_th_blocks[2]));
     agree();
     solve(self->_u_ksp, self->_mix_u_rhs, self->_mix_u_out);
     PetscPopErrorHandler();

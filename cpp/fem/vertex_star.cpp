@@ -13,7 +13,8 @@ using namespace dolfinx;
 namespace muscle
 {
 
-std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V)
+std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V,
+                                    std::span<const std::int64_t> numbers)
 {
   auto mesh = V.mesh();
   const mesh::Topology& topology = mesh->topology();
@@ -57,6 +58,9 @@ std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V)
   }
 
   const common::IndexMap& node_map = *dofmap.index_map;
+  if (!numbers.empty()
+      and numbers.size() != std::size_t(bs) * (node_map.size_local() + node_map.num_ghosts()))
+    throw std::logic_error("vertex_star_patches: one number per local dof expected");
   std::vector<IS> patches;
   patches.reserve(owned_vertices + 1);
   std::vector<std::int64_t> global_nodes;
@@ -68,9 +72,14 @@ std::vector<IS> vertex_star_patches(const fem::FunctionSpace& V)
     global_nodes.resize(nodes.size());
     node_map.local_to_global(nodes, global_nodes);
     dofs.clear();
-    for (std::int64_t node : global_nodes)
+    for (std::size_t i = 0; i < nodes.size(); ++i)
       for (int k = 0; k < bs; ++k)
-        dofs.push_back(node * bs + k);
+      {
+        const std::int64_t dof = numbers.empty() ? global_nodes[i] * bs + k
+                                                 : numbers[nodes[i] * bs + k];
+        if (dof >= 0)
+          dofs.push_back(dof);
+      }
     std::sort(dofs.begin(), dofs.end());
     IS patch;
     ISCreateGeneral(PETSC_COMM_SELF, dofs.size(), dofs.data(), PETSC_COPY_VALUES, &patch);

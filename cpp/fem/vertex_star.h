@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <dolfinx/fem/FunctionSpace.h>
 #include <petscis.h>
+#include <span>
 #include <vector>
 
 namespace muscle
@@ -26,6 +27,11 @@ namespace muscle
 /// owned star form one more block, the last; a rank with none of either gets one
 /// empty block (PCASM, which the tests compare with, needs one per rank).  The
 /// caller owns the index sets (ISDestroy each).  Not collective.
-std::vector<IS> vertex_star_patches(const dolfinx::fem::FunctionSpace& V);
+///
+/// `numbers`, if given: per local (owned and ghost) unrolled dof of V, the row
+/// number of the operator to use for it, or -1 to leave it out (the reduced
+/// unknowns under a linear constraint, DisplacementConstraint::reduced_numbers).
+std::vector<IS> vertex_star_patches(const dolfinx::fem::FunctionSpace& V,
+                                    std::span<const std::int64_t> numbers = {});
 
 } // namespace muscle
