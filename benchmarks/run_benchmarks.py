@@ -663,6 +663,14 @@ def phase_restore(args, records):
             with open(path, "w") as f:
                 json.dump(r, f, indent=1)
             count += 1
+    for r in saved.get("taylor_hood_runs") or []:  # phase taylor-hood's, in their own folder
+        folder = os.path.join(args.work, "taylor_hood", r["name"])
+        path = os.path.join(folder, "record.json")
+        if not os.path.exists(path):
+            os.makedirs(folder, exist_ok=True)
+            with open(path, "w") as f:
+                json.dump(r, f, indent=1)
+            count += 1
     for element, data in saved.get("assembly", {}).items():
         name = element if "_n" in element else f"{element}_n{data.get('refinement', 1)}"
         path = os.path.join(args.work, f"assembly_{name}.json")

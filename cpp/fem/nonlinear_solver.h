@@ -298,6 +298,7 @@ private:
   std::array<Mat, 2> _th_reduced{};
   Mat _A_gamma_red = nullptr;       ///< T^T A_gamma T under a constraint
   PetscObjectId _A_gamma_id = 0;    ///< the A_gamma object _A_gamma_red was made from
+  PetscObjectState _A_gamma_state = -1; ///< and its nonzero state then
   /// the coupling block i (0: A_uq, 1: A_qu) on the unknowns Newton solves for
   Mat coupling_block(int i) const { return _constraint ? _th_reduced[i] : _th_blocks[i]; }
   bool _taylor_hood = false;

@@ -83,10 +83,13 @@ void NonlinearSolver::reduce_mixed_blocks(bool first)
   if (!_augmented)
     return;
   // A_gamma is a new object when A's pattern changed (contact): a new product then
+  // (the state too: a numeric product on a stale symbolic one reads past its arrays)
   Mat A_gamma = _augmented->matrix();
   PetscObjectId id;
   PetscObjectGetId(reinterpret_cast<PetscObject>(A_gamma), &id);
-  if (_A_gamma_red and id == _A_gamma_id)
+  PetscObjectState state;
+  MatGetNonzeroState(A_gamma, &state);
+  if (_A_gamma_red and id == _A_gamma_id and state == _A_gamma_state)
     MatPtAP(A_gamma, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &_A_gamma_red);
   else
   {
@@ -94,6 +97,7 @@ void NonlinearSolver::reduce_mixed_blocks(bool first)
     MatPtAP(A_gamma, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_gamma_red);
     MatSetBlockSize(_A_gamma_red, _reduced_bs);
     _A_gamma_id = id;
+    _A_gamma_state = state;
   }
 }
 
@@ -445,8 +449,9 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
   set_boomeramg_defaults("-fieldsplit_u_", _constraint == nullptr, "2");
   // variant 1 on the degree-1 level: on the bending cantilever 92.5 Krylov its per
   // Newton it against variant 2's 111.5 (0 and 3: 264, 275), on the fusiform even
-  // (BENCHMARKS.md, "Preconditioners against kappa"); the degree-1 level is never
-  // constrained (under a constraint P maps it onto the reduced unknowns)
+  // (BENCHMARKS.md, "Preconditioners against kappa"); the degree-1 space is never
+  // constrained, whole nodes of block size 3 (under a constraint R P maps it onto
+  // the reduced unknowns)
   if (pmg)
     set_boomeramg_defaults("-fieldsplit_u_mg_coarse_", true, "1");
   KSPCreate(comm, &_q_ksp);
