@@ -10,7 +10,7 @@ namespace muscle
 const std::vector<std::string>& NewtonOptions::linear_solvers()
 {
   static const std::vector<std::string> names = {"lu", "gmres-hypre", "gmres-gamg",
-                                                     "gmres-schur"};
+                                                     "gmres-schur", "gmres-stars"};
   return names;
 }
 

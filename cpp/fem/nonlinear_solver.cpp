@@ -60,6 +60,7 @@ NonlinearSolver::NonlinearSolver(
       _work(_b), _work2(_b)
 {
   _options.validate();
+  expand_stars(_problem.taylor_hood());
   refuse_unread_options(_problem.taylor_hood(),
                         _options.fbar_cell_unknowns
                             and std::all_of(_parts.begin(), _parts.end(),
@@ -214,6 +215,27 @@ PetscErrorCode NonlinearSolver::trust_region_linear_check(KSP ksp, Vec, Vec, voi
   static_cast<NonlinearSolver*>(ctx)->_trust_region_linear_failure = true;
   SETERRQ(PetscObjectComm(reinterpret_cast<PetscObject>(ksp)), PETSC_ERR_NOT_CONVERGED,
           "the linear solve failed inside the trust region");
+}
+
+void NonlinearSolver::expand_stars(bool taylor_hood)
+{
+  if (_options.linear_solver != "gmres-stars")
+    return;
+  if (!taylor_hood)
+    throw InputError("linear solver gmres-stars: the Taylor-Hood field split relaxed on "
+                     "vertex stars, for element.taylor_hood: true (--taylor-hood) only; "
+                     "this run's element has no pressure unknowns (for F-bar: gmres-schur)");
+  // the kappa candidate "..., stars, BoomerAMG, lag 2": flat in kappa and 1.2-1.4x per
+  // refinement on the fusiform, the one split that runs its free contraction at n = 2
+  // (BENCHMARKS.md, "Preconditioners against kappa")
+  set_unless_given({{"-al_gamma", "1"}, {"-fieldsplit_u_pc_type", "mg"}});
+  // the multigrid's own options only under it: refuse_unread_options would blame the
+  // user for options the preset set
+  if (string_option("-fieldsplit_u_pc_type") == "mg")
+    set_unless_given({{"-fieldsplit_u_mg_levels_pc_type", PCSTARS},
+                      {"-fieldsplit_u_mg_coarse_pc_type", "hypre"},
+                      {"-fieldsplit_u_mg_coarse_lag", "2"}});
+  _options.linear_solver = "gmres-schur";
 }
 
 void NonlinearSolver::read_al_gamma(bool taylor_hood)

@@ -25,8 +25,10 @@ struct NewtonOptions
   double atol = 1e-10; ///< absolute residual norm [mN]
   int max_iterations = 25;
   /// "lu" (MUMPS), "gmres-hypre" (BoomerAMG), "gmres-gamg" (with the rigid-body
-  /// near-null space) or "gmres-schur" (F-bar three-field only: the penalty split
-  /// through the saddle form, penalty_split.cpp; converges at kappa = 10^4)
+  /// near-null space), "gmres-schur" (F-bar three-field: the penalty split
+  /// through the saddle form, penalty_split.cpp, converges at kappa = 10^4;
+  /// Taylor-Hood: its Schur field split) or "gmres-stars" (Taylor-Hood only: that
+  /// split with the options of its best measured preconditioner, expand_stars)
   std::string linear_solver = "lu";
   /// GAMG's near-null space: "global", six rigid-body modes for the whole mesh,
   /// or "bodies", six per separately meshed body (mesh_bodies).  Global by
@@ -179,6 +181,10 @@ private:
   // nonlinear_solver.cpp: the linear solver of the Newton steps
   /// -al_gamma, checked against the element, the solver and a constraint
   void read_al_gamma(bool taylor_hood);
+  /// "gmres-stars": "gmres-schur" with p-multigrid relaxing Q2 on vertex stars,
+  /// BoomerAMG on Q1 (its product lagged 2) and -al_gamma 1, each option the
+  /// user gave kept; InputError without Taylor-Hood
+  void expand_stars(bool taylor_hood);
   /// InputError for p-multigrid's own options in a run without p-multigrid.
   void refuse_unread_options(bool taylor_hood, bool three_field) const;
   void configure_linear_solver(KSP linear);

@@ -50,6 +50,8 @@ public:
   void prepare(Mat A);
   /// The next coarse_matrix(A) recomputes, whatever the lag (a new Newton solve).
   void refresh_at_next_call() { _calls_since = _lag - 1; }
+  /// Newton iterations per Galerkin product (-fieldsplit_u_mg_coarse_lag).
+  PetscInt lag() const { return _lag; }
 
 private:
   std::shared_ptr<const dolfinx::fem::FunctionSpace> _V1;

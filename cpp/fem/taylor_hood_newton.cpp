@@ -49,7 +49,7 @@ void NonlinearSolver::create_pressure_unknowns()
     throw InputError("linear solver " + _options.linear_solver
                      + ": the Taylor-Hood system (displacement and pressure) is solved by "
                        "MUMPS (linear: lu) or by GMRES with its Schur complement "
-                       "(linear: gmres-schur)");
+                       "(linear: gmres-schur, or gmres-stars relaxing it on vertex stars)");
   _taylor_hood = true;
   const MuscleProblem::TaylorHoodForms& f = _problem.th_forms();
   auto Q = _problem.th_state()->function_space();
@@ -510,6 +510,9 @@ void NonlinearSolver::configure_mixed_shell(PC pc)
     name += ", augmented Lagrangian (gamma "
             + shortest(_augmented->gamma()) + " kPa)";
   name += pmg ? ", p-multigrid on u" : ", " + string_option("-fieldsplit_u_pc_type") + " on u";
+  if (pmg and _coarsening->lag() > 1)
+    name += " (its Q1 product every " + std::to_string(_coarsening->lag())
+            + " Newton iterations)";
   PCShellSetName(pc, name.c_str());
   PCShellSetView(pc, [](PC shell, PetscViewer viewer) -> PetscErrorCode
   {

@@ -136,7 +136,8 @@ Run parse(std::vector<std::string> args)
   app.add_option("--output-every", output_every, "write fields every N steps")
       ->capture_default_str();
   app.add_option("--linear-solver", linear_solver, "lu (MUMPS, the default), gmres-hypre, "
-                 "gmres-gamg or gmres-schur (F-bar: the penalty split)")
+                 "gmres-gamg, gmres-schur (F-bar: the penalty split; Taylor-Hood: the Schur "
+                 "field split) or gmres-stars (Taylor-Hood: that split relaxed on vertex stars)")
       ->check(CLI::IsMember(NewtonOptions::linear_solvers()));
   app.add_option("--linear-rtol", linear_rtol,
                  "relative tolerance of the iterative linear solvers (default 1e-10)")

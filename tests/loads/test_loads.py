@@ -291,9 +291,9 @@ def test_taylor_hood_two_ranks(build, scratch):
     2 (its field split and GAMG partitioned; with p-multigrid on the displacement
     block, -fieldsplit_u_pc_type mg; and with the augmented-Lagrangian blocks, -al_gamma,
     under GAMG, under p-multigrid and under p-multigrid relaxing on vertex stars above
-    BoomerAMG, -fieldsplit_u_mg_levels_pc_type stars -fieldsplit_u_mg_coarse_pc_type
-    hypre, its Q1 matrix made at every other Newton iteration only,
-    -fieldsplit_u_mg_coarse_lag 2): the same tip.  The preconditioner does not change
+    BoomerAMG, its Q1 matrix made at every other Newton iteration only: linear
+    gmres-stars, which must expand to -fieldsplit_u_mg_levels_pc_type stars
+    -fieldsplit_u_mg_coarse_pc_type hypre -fieldsplit_u_mg_coarse_lag 2): the same tip.  The preconditioner does not change
     the system, so a wrong block (a sign, a transpose, W^-1 on the wrong rows) shows as
     GMRES failing within its 2000 iterations or a different tip."""
     tips = []
@@ -301,8 +301,7 @@ def test_taylor_hood_two_ranks(build, scratch):
     runs = ((1, "lu", []), (2, "lu", []), (2, "gmres-schur", []), (2, "gmres-schur", pmg),
             (2, "gmres-schur", ["solver.petsc=-al_gamma 1 -ksp_view"]),
             (2, "gmres-schur", ["solver.petsc=-al_gamma 10 -fieldsplit_u_pc_type mg"]),
-            (2, "gmres-schur", [f"solver.petsc={STARS} -fieldsplit_u_mg_coarse_lag 2 "
-                                "-ksp_view"]))
+            (2, "gmres-stars", ["solver.petsc=-ksp_view"]))
     views = []
     for i, (ranks, solver, petsc) in enumerate(runs):
         out = os.path.join(scratch, f"{i}_np{ranks}_{solver}")
@@ -320,6 +319,8 @@ def test_taylor_hood_two_ranks(build, scratch):
     fine = view.index("(fieldsplit_u_mg_levels_1_)")  # the Q2 level's smoother
     assert "type: jacobi" in view[fine:fine + 1500], view[fine:fine + 1500]
     assert "augmented Lagrangian (gamma" in views[4] and "gamg on u" in views[4], views[4][-3000:]
+    for line in ("augmented Lagrangian (gamma", "its Q1 product every 2 Newton iterations"):
+        assert line in views[6], (line, views[6][-3000:])
     fine = views[6].index("(fieldsplit_u_mg_levels_1_)")  # the Q2 level's smoother
     smoother = views[6][fine:fine + 3000]
     assert "type: stars" in smoother, smoother
@@ -454,6 +455,30 @@ def test_taylor_hood_shell_under_a_constraint(build, scratch):
     assert "augmented Lagrangian (gamma" in view and "type: stars" in view, view[-3000:]
     for key, epsilon in epsilons.items():
         assert abs(epsilon - epsilons["lu_np1"]) < 1e-8, epsilons
+
+
+def test_taylor_hood_stars_preset_yields_to_the_user(build, scratch):
+    """linear: gmres-stars sets its options only where the user gave none: with
+    -fieldsplit_u_pc_type gamg given, no multigrid is made and none of its options are
+    set (refuse_unread_options would otherwise blame the user for the preset's lag);
+    -al_gamma given is the one used.  Without Taylor-Hood it is an input error naming
+    the element key and the F-bar split."""
+    gammas = []
+    for al_gamma in ("", " -al_gamma 3"):
+        result = cantilever(build, os.path.join(scratch, f"gamg{al_gamma}"), TAYLOR_HOOD + [
+            "time.end=0.1", "solver.linear=gmres-stars",
+            f"solver.petsc=-fieldsplit_u_pc_type gamg -ksp_view{al_gamma}"])
+        assert result.returncode == 0, result.stdout + result.stderr
+        assert "gamg on u" in result.stdout and "p-multigrid" not in result.stdout, \
+            result.stdout[-3000:]
+        gammas.append(float(re.search(r"augmented Lagrangian \(gamma ([0-9.e+-]+) kPa\)",
+                                      result.stdout).group(1)))
+    assert abs(gammas[1] / gammas[0] - 3) < 1e-4, gammas  # printed to six digits
+    stderr = cantilever(build, os.path.join(scratch, "fbar"), [
+        "element.degree=1", "time.end=0.1", "solver.linear=gmres-stars"])
+    assert stderr.returncode == 2, stderr.stdout + stderr.stderr
+    assert "gmres-stars" in stderr.stderr and "element.taylor_hood: true" in stderr.stderr \
+        and "gmres-schur" in stderr.stderr, stderr.stderr
 
 
 def test_taylor_hood_al_gamma_must_be_positive(build, scratch):

@@ -321,7 +321,7 @@ BROKEN = [
     ("time table not increasing", B, "time: model", "time: {table: [[0, 0], [0.05, 1], [0.02, 1]]}",
      ["activation.time.table[2][0]", "times must increase"], True),
     ("unknown linear solver", B, "time: {end", "solver: {linear: cholesky}\ntime: {end",
-     ["solver.linear", "'cholesky'", "allowed: lu, gmres-hypre, gmres-gamg, gmres-schur"], True),
+     ["solver.linear", "'cholesky'", "allowed: lu, gmres-hypre, gmres-gamg, gmres-schur, gmres-stars"], True),
     ("unknown series quantity", B, "quantity: min_J", "quantity: minJ", ["quantity", "did you mean 'min_J'"], True),
     ("reaction on a free surface", B, "quantity: min_J}", "quantity: reaction, surface: sides, component: z}",
      ["'sides' carries no boundary condition"], True),
