@@ -215,11 +215,53 @@ void add_parts(const Scene& scene, SceneModel& model)
   }
 }
 
+namespace
+{
+/// A dof both prescribed and tied by uniform_axial: T^T J T would sum its unit
+/// Dirichlet row into the tied value's equation, and the run would move (or hold)
+/// the whole surface by one node's condition without a word.
+void refuse_prescribed_tied_dofs(const SceneModel& model,
+                                 const std::vector<const BoundaryCondition*>& prescribing,
+                                 const BoundaryCondition& uniform)
+{
+  const std::vector<std::int64_t> reduced = model.constraint->reduced_numbers();
+  for (std::size_t i = 0; i < prescribing.size(); ++i)
+  {
+    auto [dofs, owned] = model.bcs[i]->dof_indices();
+    std::int64_t shared = std::count_if(dofs.begin(), dofs.begin() + owned,
+                                        [&](std::int32_t d) { return reduced[d] < 0; });
+    MPI_Allreduce(MPI_IN_PLACE, &shared, 1, MPI_INT64_T, MPI_SUM,
+                  model.problem().mesh()->comm());
+    if (shared == 0)
+      continue;
+    const BoundaryCondition& bc = *prescribing[i];
+    const std::string what = bc.kind == BoundaryCondition::Kind::point ? "fix_point"
+                             : bc.kind == BoundaryCondition::Kind::clamp
+                                 ? "clamp: " + bc.surface
+                                 : "displacement: " + bc.surface;
+    throw InputError(uniform.where.text() + ": uniform_axial: " + uniform.surface + " ties "
+                     + std::to_string(shared) + " displacement component"
+                     + (shared > 1 ? "s" : "") + " that " + bc.where.text() + " (" + what
+                     + ") prescribes; a tied component cannot also be prescribed. Let the "
+                       "surfaces share no node in component "
+                     + std::string(1, "xyz"[uniform.component]) + ", or prescribe the "
+                       "whole surface instead of tying it");
+  }
+}
+} // namespace
+
 void add_boundary(const Scene& scene, SceneModel& model)
 {
   auto V = model.problem().V();
+  // model.bcs[i] comes from prescribing[i]
+  std::vector<const BoundaryCondition*> prescribing;
+  const BoundaryCondition* uniform = nullptr;
   for (const BoundaryCondition& bc : scene.boundary)
   {
+    if (bc.kind == BoundaryCondition::Kind::uniform_axial)
+      uniform = &bc;
+    else
+      prescribing.push_back(&bc);
     if (bc.kind == BoundaryCondition::Kind::point)
     {
       // a point inside the body (or within half an element of it): its nearest node
@@ -249,6 +291,8 @@ void add_boundary(const Scene& scene, SceneModel& model)
       model.constraint = std::make_shared<UniformDisplacementConstraint>(
           *V, component_dofs(*V, facets, bc.component));
   }
+  if (uniform)
+    refuse_prescribed_tied_dofs(model, prescribing, *uniform);
 }
 
 void add_ties(const Scene& scene, SceneModel& model)

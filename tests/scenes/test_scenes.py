@@ -307,6 +307,10 @@ BROKEN = [
      ["boundary[0]", "only one of"], True),
     ("two axial constraints", B, "- clamp: bottom", "- {uniform_axial: bottom, component: z}",
      ["only one uniform_axial"], False),
+    # T^T J T would sum the prescribed rows into the tied value's equation
+    ("tied component also prescribed", B, "top, component: x, value: 0", "top, component: z, value: 0",
+     ["boundary[3]: uniform_axial: top ties 49 displacement components", "boundary[1] (displacement: top)",
+      "cannot also be prescribed"], True),
     ("degree 3", B, "{degree: 2}", "{degree: 3}", ["element.degree", "integer from 1 to 2"], True),
     ("zero fibre direction", B, "[0, 0, 1]", "[0, 0, 0]", ["fibres.direction", "must not be zero"], True),
     ("fibre direction of two numbers", B, "[0, 0, 1]", "[0, 1]", ["fibres.direction", "expected [a1, a2, a3]"], True),
