@@ -617,9 +617,11 @@ def phase_kappa_n4(args, records):
 def phase_kappa_free(args, records):
     """The Taylor-Hood splits on the free contraction (the uniform-axial constraint: the
     shell's blocks on T^T A T's reduced unknowns) at the preset kappa, n = 1 on one rank
-    and 2 on two (--kappa-refinements)."""
+    and 2 on two (--kappa-refinements); those of the two in --kappa-candidates."""
     for n in args.kappa_refinements:
         for label in ("Taylor-Hood, Schur split", STARS_CANDIDATE):
+            if label not in args.kappa_candidates:
+                continue
             kappa_run(args, records, label, case="free", n=n, np=1 if n == 1 else 2,
                       solver="gmres-schur", sets=("kappa=1000",),
                       petsc=KAPPA_CANDIDATES[label][1], rtol=1e-6,
