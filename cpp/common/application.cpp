@@ -1,6 +1,7 @@
 #include "application.h"
 
 #include <chrono>
+#include <cstdlib>
 #include <thread>
 
 #include "errors.h"
@@ -131,9 +132,15 @@ std::vector<double> parse_range(const std::string& text, const std::string& what
   return values;
 }
 
+void make_partitions_reproducible()
+{
+  setenv("SCOTCH_PTHREAD_NUMBER", "1", 0); // the user's value wins
+}
+
 int run_application(int argc, char** argv,
                     const std::function<int(std::vector<std::string>)>& body)
 {
+  make_partitions_reproducible();
   PetscInitialize(&argc, &argv, nullptr, nullptr);
   loguru::g_stderr_verbosity = loguru::Verbosity_WARNING;
   int status = exit_ok;

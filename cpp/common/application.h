@@ -17,6 +17,14 @@ namespace muscle
 int run_application(int argc, char** argv,
                     const std::function<int(std::vector<std::string>)>& body);
 
+/// Makes a rank count's mesh partition the same in every run: PT-Scotch's
+/// threads, which race in its coarsening, limited to one unless the user set
+/// SCOTCH_PTHREAD_NUMBER.  Two ranks gave three different partitions in four
+/// runs of the same mesh, so Krylov counts and the last digits of every result
+/// changed from run to run.  Before the first mesh is made (run_application and
+/// the test main call it before MPI starts).
+void make_partitions_reproducible();
+
 /// Separate PETSc options (a single dash and a name of two or more
 /// characters, e.g. -snes_monitor or -ksp_type gmres, with a value if one
 /// follows) from the program's own arguments (--long options, -h).

@@ -245,6 +245,23 @@ def test_parity_series_agree(parity_runs, case, column):
         f"({len(a)} and {len(b)} rows)")
 
 
+def test_parity_two_ranks_repeat(build):
+    """The same run on two ranks, three times, must give the same result to the last bit.
+    Threaded PT-Scotch partitioned the same mesh differently from run to run (three
+    partitions in four runs), and with the partition GAMG's aggregates, the Krylov count
+    and the last digits of F33.  GAMG (not MUMPS, whose own scheduling reorders sums) and
+    a soft kappa keep each run about a second.  Fails with SCOTCH_PTHREAD_NUMBER=2 set."""
+    runs = [fusiform(build, os.path.join(build, "test_out", "parity", f"repeat_{k}"),
+                     ["--model", "combi", "--case", "isometric", "--refinement", "1", "--fbar",
+                      "--linear-solver", "gmres-gamg", "--dt", "0.05", "--t-end", "0.05",
+                      "--set", "kappa=10"], 2) for k in range(3)]
+    for k, r in enumerate(runs):
+        assert r.code == 0 and r.summary.get("final"), (
+            f"run {k + 1} of 3 completes (exit {r.code}) {r.output}")
+    seen = {(repr(r.summary["final"]["F33"]), r.summary["linear_iterations"]) for r in runs}
+    assert len(seen) == 1, f"three runs on 2 ranks, (F33, Krylov iterations): {sorted(seen)}"
+
+
 def test_parity_sparse_schur(build):
     """The penalty split's sparse Schur approximation (-penalty_split_schur sparse) is a
     matrix over the cells of all ranks.  With both solves exact (MUMPS) the preconditioner
