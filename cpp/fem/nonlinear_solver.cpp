@@ -122,7 +122,7 @@ NonlinearSolver::NonlinearSolver(
     VecDestroy(&F);
     create_pressure_unknowns();
     VecDuplicate(_x_ext, &F);
-    J = _J_mixed;
+    J = _J_mixed ? _J_mixed : _J_nest; // the nest under GMRES
   }
   else if (_constraint)
   {

@@ -311,7 +311,7 @@ private:
   std::unique_ptr<dolfinx::la::Vector<double>> _bq; ///< q residual, with ghosts
   std::array<Mat, 3> _th_blocks{};  ///< dR_u/dq, dR_q/du, dR_q/dq
   Mat _J_nest = nullptr;  ///< [[A, A_uq], [A_qu, A_qq]]
-  Mat _J_mixed = nullptr; ///< the nest assembled (MUMPS)
+  Mat _J_mixed = nullptr; ///< the nest assembled (MUMPS only; GMRES takes the nest)
   PetscObjectState _mixed_state = -1; ///< A's nonzero state when _J_mixed was made
   std::vector<double> _q_converged; ///< q of the last converged solve (owned)
 

@@ -39,6 +39,37 @@ std::int32_t owned_size(const la::Vector<double>& v)
 
 /// the law's mu from its tangent at F = I (the Schur approximation's scale)
 double shear_modulus_at_rest(const ParameterSet& parameters, const std::string& kernels);
+
+/// The infinity norm of a nest of AIJ blocks, not assembled: per row, |a_ij| summed
+/// over its block row (MatNorm takes a nest's Frobenius norm only).
+double nest_infinity_norm(Mat nest)
+{
+  PetscInt rows, cols;
+  Mat** blocks;
+  MatNestGetSubMats(nest, &rows, &cols, &blocks);
+  double largest = 0;
+  for (PetscInt i = 0; i < rows; ++i)
+  {
+    PetscInt start, end;
+    MatGetOwnershipRange(blocks[i][0], &start, &end);
+    std::vector<double> sums(end - start, 0.0);
+    for (PetscInt j = 0; j < cols; ++j)
+      for (PetscInt r = start; r < end; ++r)
+      {
+        PetscInt n;
+        const PetscScalar* values;
+        MatGetRow(blocks[i][j], r, &n, nullptr, &values);
+        for (PetscInt k = 0; k < n; ++k)
+          sums[r - start] += std::abs(values[k]);
+        MatRestoreRow(blocks[i][j], r, &n, nullptr, &values);
+      }
+    for (double s : sums)
+      largest = std::max(largest, s);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX,
+                PetscObjectComm(reinterpret_cast<PetscObject>(nest)));
+  return largest;
+}
 } // namespace
 
 void NonlinearSolver::create_pressure_unknowns()
@@ -228,24 +259,31 @@ void NonlinearSolver::assemble_mixed_jacobian()
   }
   MatAssemblyBegin(_J_nest, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(_J_nest, MAT_FINAL_ASSEMBLY);
-  // MUMPS needs the blocks in one matrix; contact can add nonzeros to A, and a
-  // conversion reusing the old pattern would drop them
-  PetscObjectState state;
-  MatGetNonzeroState(A, &state);
-  if (!_J_mixed)
-    MatConvert(_J_nest, MATAIJ, MAT_INITIAL_MATRIX, &_J_mixed);
-  else if (state != _mixed_state)
+  // GMRES takes the nest as it is (the split's blocks are the nest's, not copies):
+  // the assembled copy was a quarter of the stars split's memory at n = 1
+  if (_options.linear_solver == "lu")
   {
-    Mat fresh;
-    MatConvert(_J_nest, MATAIJ, MAT_INITIAL_MATRIX, &fresh);
-    MatSetOption(_J_mixed, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
-    MatCopy(fresh, _J_mixed, DIFFERENT_NONZERO_PATTERN);
-    MatDestroy(&fresh);
+    // MUMPS needs the blocks in one matrix; contact can add nonzeros to A, and a
+    // conversion reusing the old pattern would drop them
+    PetscObjectState state;
+    MatGetNonzeroState(A, &state);
+    if (!_J_mixed)
+      MatConvert(_J_nest, MATAIJ, MAT_INITIAL_MATRIX, &_J_mixed);
+    else if (state != _mixed_state)
+    {
+      Mat fresh;
+      MatConvert(_J_nest, MATAIJ, MAT_INITIAL_MATRIX, &fresh);
+      MatSetOption(_J_mixed, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+      MatCopy(fresh, _J_mixed, DIFFERENT_NONZERO_PATTERN);
+      MatDestroy(&fresh);
+    }
+    else
+      MatConvert(_J_nest, MATAIJ, MAT_REUSE_MATRIX, &_J_mixed);
+    _mixed_state = state;
+    MatNorm(_J_mixed, NORM_INFINITY, &_mixed_norm);
   }
   else
-    MatConvert(_J_nest, MATAIJ, MAT_REUSE_MATRIX, &_J_mixed);
-  _mixed_state = state;
-  MatNorm(_J_mixed, NORM_INFINITY, &_mixed_norm);
+    _mixed_norm = nest_infinity_norm(_J_nest);
   if (_schur_pre)
     update_schur_preconditioner();
   if (_u_ksp)
