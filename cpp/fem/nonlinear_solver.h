@@ -270,7 +270,7 @@ private:
   /// The round-off level of the residual at the SNES iterate (without the
   /// safety factor): eps (|A| |u| + |A_mixed| |theta|)
   double mixed_floor(SNES snes) const;
-  double _mixed_norm = 0; ///< infinity norm of _J_mixed
+  double _mixed_norm = 0; ///< infinity norm of the mixed Jacobian (the nest's rows)
   /// gmres-schur on the Taylor-Hood system: PCFIELDSPLIT, u and q
   void configure_mixed_split(PC pc);
   /// _schur_pre from A_qq: the q block's Schur complement approximated
