@@ -20,11 +20,14 @@
 #include <material/parameters.h>
 
 #include <Eigen/Dense>
+#include <basix/finite-element.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <dolfinx/fem/assembler.h>
 #include <dolfinx/fem/petsc.h>
+#include <dolfinx/fem/sparsitybuild.h>
+#include <dolfinx/la/SparsityPattern.h>
 #include <dolfinx/la/petsc.h>
 #include <dolfinx/mesh/generation.h>
 #include <dolfinx/mesh/utils.h>
@@ -295,6 +298,54 @@ TEST(DegreeOneCoarsening, LagKeepsTheGalerkinMatrixBetweenProducts)
   MatScale(A, 2.0);
   coarsening.refresh_at_next_call(); // a new Newton solve
   EXPECT_NEAR(norm_of_coarse(), 4 * first, 1e-12 * first) << "after a refresh";
+  MatDestroy(&A);
+}
+
+TEST(DegreeOneCoarsening, GalerkinMatrixCouplesVerticesOfACellOnly)
+{
+  // A: every pair of degree-2 dofs of a cell coupled (ones, so nothing cancels).
+  // P^T A P must couple two vertices exactly when they share a cell: the degree-1
+  // sparsity pattern, built here by DOLFINx from the degree-1 dofmap.  P's exact
+  // zeros kept (the nodes on a vertex star's outer faces) reach two cells away.
+  auto mesh = std::make_shared<mesh::Mesh>(
+      mesh::create_box(MPI_COMM_WORLD, {{{0, 0, 0}, {1, 1, 1}}}, {3, 3, 4},
+                       mesh::CellType::hexahedron, mesh::GhostMode::shared_facet));
+  const basix::FiniteElement e2 = basix::create_element(
+      basix::element::family::P, basix::cell::type::hexahedron, 2,
+      basix::element::lagrange_variant::gll_warped, false);
+  auto V = std::make_shared<fem::FunctionSpace>(fem::create_functionspace(mesh, e2, 3));
+  DegreeOneCoarsening coarsening(V, {});
+
+  const int tdim = mesh->topology().dim();
+  std::vector<std::int32_t> cells(mesh->topology().index_map(tdim)->size_local());
+  std::iota(cells.begin(), cells.end(), 0);
+  auto pattern_of = [&](const fem::DofMap& dofmap)
+  {
+    la::SparsityPattern pattern(MPI_COMM_WORLD, {dofmap.index_map, dofmap.index_map}, {3, 3});
+    fem::sparsitybuild::cells(pattern, cells, {dofmap, dofmap});
+    pattern.assemble();
+    return pattern;
+  };
+  Mat A = la::petsc::create_matrix(MPI_COMM_WORLD, pattern_of(*V->dofmap()));
+  const std::vector<double> ones(81 * 81, 1.0);
+  auto add = la::petsc::Matrix::set_block_fn(A, ADD_VALUES);
+  for (std::int32_t c : cells)
+  {
+    auto dofs = V->dofmap()->cell_dofs(c);
+    add(dofs, dofs, ones);
+  }
+  MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
+  MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
+
+  MatInfo info;
+  MatGetInfo(coarsening.coarse_matrix(A), MAT_GLOBAL_SUM, &info);
+  const fem::DofMap& dofmap1 = *coarsening.coarse_space()->dofmap();
+  const la::SparsityPattern pattern1 = pattern_of(dofmap1);
+  std::int64_t expected = 0; // 3 x 3 entries per pair of owned and any vertex
+  for (std::int32_t row = 0; row < dofmap1.index_map->size_local(); ++row)
+    expected += 9 * (pattern1.nnz_diag(row) + pattern1.nnz_off_diag(row));
+  MPI_Allreduce(MPI_IN_PLACE, &expected, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(std::int64_t(info.nz_used), expected);
   MatDestroy(&A);
 }
 
