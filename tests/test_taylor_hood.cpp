@@ -4,7 +4,8 @@
 // every paper model (WKM's stress holds omega_a, GIANT's omega_a comes from its
 // quadrature-point kernel, both read the fibre stretch at F_bar).  And p-multigrid's
 // prolongation: a trilinear field is a degree-1 function, so interpolating its
-// degree-1 values into the degree-2 space must give its degree-2 values.  And the
+// degree-1 values into the degree-2 space must give its degree-2 values, and its
+// Galerkin matrix must have DOLFINx's degree-1 sparsity pattern.  And the
 // augmented-Lagrangian blocks against the same algebra done densely (Eigen).  And
 // the vertex-star patches against their geometric definition, and their relaxation
 // against PETSc's additive Schwarz on the same patches.
