@@ -256,6 +256,10 @@ RUNS = {
        for key, suffix, n2 in (("kts", "", (1000,)),
                                ("ktl", "_fieldsplit_u_mg_coarse_lag2", (10, 100, 1000, 10000)))
        for n, kappas in ((1, (10, 100, 1000, 10000)), (2, n2)) for k in kappas},
+    # and n = 3 (1.4 M unknowns, lag 2, kappa = 1000)
+    "ktl3_k1000": "kappa_combi_isometric_hex2th_n3_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
+                  "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
+                  "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2",
     # the free contraction (the uniform-axial constraint) at kappa = 1000, phase
     # kappa-free: the plain split (kfp) and the stars split, lag 2 (kfs); _free2: n = 2
     **{f"{key}_free{n if n > 1 else ''}":
