@@ -32,7 +32,8 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             levels; lower with A_s^-1 by MUMPS, a diagnosis); n = 1 on one rank
             and n = 2 on two (--kappa-refinements, --kappa-candidates, --kappas); and
             Taylor-Hood with its Schur field split (GAMG or BoomerAMG on the
-            displacement block), n = 1 on one rank and n = 2 on two
+            displacement block), n = 1 on one rank and n = 2 on two (n = 3, on two,
+            only when --kappa-refinements names it)
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
             (full factor at linear rtol 1e-6, lower at 1e-4, lower with SSOR levels at 1e-4)
   kappa-free  the plain and the stars Taylor-Hood splits on the free contraction,

@@ -48,7 +48,7 @@ PetscInt lag_option()
 /// a cell's degree-2 nodes and degree-1 vertices, but a vertex's hat function is
 /// zero at the nodes on its star's outer faces: 64 of a hexahedron's 216 pairs are
 /// not zero.  Kept, those zeros make P^T A P's pattern reach two cells away instead
-/// of one, 738 entries per row instead of about 80 on the fusiform muscle
+/// of one, 738 entries per row instead of 73 on the fusiform muscle
 /// (n = 1), and the AMG below coarsens that pattern.  Collective.
 Mat without_exact_zeros(Mat P)
 {

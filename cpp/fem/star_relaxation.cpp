@@ -80,8 +80,8 @@ PetscErrorCode setup_patches(PC pc)
     PetscCall(make_scatter(s, pc->pmat));
   // Owned rows are read from the operator itself; only the ghost rows are fetched,
   // with their columns among the patches' rows.  A copy of every patch row (PETSc's
-  // MatCreateSubMatrices on all of them) was a second A_gamma at each set-up: on the
-  // fusiform muscle (n = 1, one rank) the peak fell from 772 to 568 MiB without it.
+  // MatCreateSubMatrices on all of them) would copy A_gamma at each set-up: on the
+  // fusiform muscle (n = 1, one rank) the peak is 568 MiB without that copy, 772 with it.
   // s.rows is sorted, so the owned ones are the positions [owned_begin, owned_end).
   PetscInt row_begin, row_end;
   PetscCall(MatGetOwnershipRange(pc->pmat, &row_begin, &row_end));
