@@ -750,6 +750,31 @@ Eigen::MatrixXd dense_copy(Mat M)
   }
   return D;
 }
+/// An operator's matrix, column by column from its products with unit vectors
+Eigen::MatrixXd dense_operator(Mat M)
+{
+  PetscInt m, n;
+  MatGetSize(M, &m, &n);
+  Vec e, column;
+  MatCreateVecs(M, &e, &column);
+  Eigen::MatrixXd D(m, n);
+  for (PetscInt j = 0; j < n; ++j)
+  {
+    VecZeroEntries(e);
+    VecSetValue(e, j, 1.0, INSERT_VALUES);
+    VecAssemblyBegin(e);
+    VecAssemblyEnd(e);
+    MatMult(M, e, column);
+    const PetscScalar* a;
+    VecGetArrayRead(column, &a);
+    for (PetscInt i = 0; i < m; ++i)
+      D(i, j) = a[i];
+    VecRestoreArrayRead(column, &a);
+  }
+  VecDestroy(&e);
+  VecDestroy(&column);
+  return D;
+}
 } // namespace
 
 TEST(AugmentedLagrangian, MatchesDenseAlgebra)
@@ -803,6 +828,8 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
     cell_sum += gamma * B.transpose() * w.cwiseInverse().asDiagonal() * B;
   }
 
+  // A_gamma in A's own storage, GMRES's A an operator: on the first call, on the
+  // update in place, and after a new nonzero in A (contact coupling nodes 0 and 2)
   AugmentedLagrangian al(gamma);
   Mat pA = sparse_copy(A), pA_qu = sparse_copy(A_qu), pA_qq = sparse_copy(A_qq);
   MatSetBlockSize(pA, 3);
@@ -812,65 +839,77 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
                                &l2g);
   MatSetLocalToGlobalMapping(pA, l2g, l2g);
   ISLocalToGlobalMappingDestroy(&l2g);
-  // the first call, the update in place, and a new nonzero in A (contact
-  // coupling nodes 0 and 2) between calls: A_gamma must take it and keep the
-  // near-null space set on it (GAMG without its rigid-body modes coarsens badly)
-  MatNullSpace modes;
-  MatNullSpaceCreate(PETSC_COMM_SELF, PETSC_TRUE, 0, nullptr, &modes);
-  Eigen::MatrixXd expected_A = A;
-  for (int call = 0; call < 3; ++call)
+  auto assemble_cells = [&](AugmentedLagrangian& al, Mat A_now, std::array<int, 2> order)
   {
-    if (call == 1)
-    {
-      MatScale(pA, -3.0);
-      expected_A *= -3.0;
-    }
-    if (call == 2)
-    {
-      MatSetOption(pA, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
-      MatSetValue(pA, 0, 7, 0.5, ADD_VALUES);
-      MatSetValue(pA, 7, 0, 0.5, ADD_VALUES);
-      MatAssemblyBegin(pA, MAT_FINAL_ASSEMBLY);
-      MatAssemblyEnd(pA, MAT_FINAL_ASSEMBLY);
-      expected_A(0, 7) = expected_A(7, 0) = 0.5;
-    }
-    al.begin(pA);
+    al.begin(A_now);
     for (int c = 0; c < 2; ++c)
     {
       const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> e = qq_e[c];
       al.add_cell_mass(cells[c], std::span(e.data(), e.size()));
     }
-    for (int c = 0; c < 2; ++c)
+    for (int c : order)
     {
       const Eigen::Matrix<double, 4, 6, Eigen::RowMajor> e = qu_e[c];
       al.add_cell_coupling(cells[c], cells[c], std::span(e.data(), e.size()));
     }
     al.end(pA_qq);
+  };
+  Eigen::MatrixXd expected_A = A;
+  for (int call = 0; call < 3; ++call)
+  {
+    if (call == 1)
+      expected_A *= -3.0;
+    if (call == 2)
+    {
+      MatSetOption(pA, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+      expected_A(0, 7) = expected_A(7, 0) = 0.5;
+    }
+    // A assembled anew, as each Newton iteration does
+    MatZeroEntries(pA);
+    for (int i = 0; i < 3 * nodes; ++i)
+      for (int j = 0; j < 3 * nodes; ++j)
+        if (expected_A(i, j) != 0)
+          MatSetValue(pA, i, j, expected_A(i, j), INSERT_VALUES);
+    MatAssemblyBegin(pA, MAT_FINAL_ASSEMBLY);
+    MatAssemblyEnd(pA, MAT_FINAL_ASSEMBLY);
+    assemble_cells(al, pA, {0, 1});
+    EXPECT_EQ(al.matrix(), pA);
     const Eigen::MatrixXd expected = expected_A + cell_sum;
     const Eigen::MatrixXd got = dense_copy(al.matrix());
     EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff())
         << "call " << call;
-    if (call == 0)
-      MatSetNearNullSpace(al.matrix(), modes);
-    MatNullSpace kept = nullptr;
-    MatGetNearNullSpace(al.matrix(), &kept);
-    EXPECT_EQ(kept, modes) << "call " << call;
+    const Eigen::MatrixXd block = dense_operator(al.jacobian_block(pA, nullptr));
+    EXPECT_LT((block - expected_A).cwiseAbs().maxCoeff(),
+              1e-12 * expected.cwiseAbs().maxCoeff())
+        << "call " << call;
   }
-  MatNullSpaceDestroy(&modes);
+
+  // under a constraint u = T x: T^T A T from T^T A_gamma T less the cells' terms
+  {
+    Eigen::MatrixXd T_dense = Eigen::MatrixXd::Zero(3 * nodes, 4);
+    for (int i = 0; i < 3 * nodes; ++i)
+      T_dense(i, i % 4) = 1.0 + 0.1 * i; // every full dof on one reduced unknown
+    Mat T = sparse_copy(T_dense);
+    Mat A_full = sparse_copy(A);
+    MatSetBlockSize(A_full, 3);
+    ISLocalToGlobalMapping map;
+    ISLocalToGlobalMappingCreate(PETSC_COMM_SELF, 3, nodes, identity.data(), PETSC_COPY_VALUES,
+                                 &map);
+    MatSetLocalToGlobalMapping(A_full, map, map);
+    ISLocalToGlobalMappingDestroy(&map);
+    AugmentedLagrangian constrained(gamma);
+    assemble_cells(constrained, A_full, {0, 1});
+    Mat reduced;
+    MatPtAP(A_full, T, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &reduced);
+    const Eigen::MatrixXd block = dense_operator(constrained.jacobian_block(reduced, T));
+    const Eigen::MatrixXd expected = T_dense.transpose() * A * T_dense;
+    EXPECT_LT((block - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+    for (Mat* m : {&T, &A_full, &reduced})
+      MatDestroy(m);
+  }
 
   // cells of A_qu's assembly that do not follow A_qq's are reported
-  al.begin(pA);
-  for (int c = 0; c < 2; ++c)
-  {
-    const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> e = qq_e[c];
-    al.add_cell_mass(cells[c], std::span(e.data(), e.size()));
-  }
-  for (int c : {1, 0})
-  {
-    const Eigen::Matrix<double, 4, 6, Eigen::RowMajor> e = qu_e[c];
-    al.add_cell_coupling(cells[c], cells[c], std::span(e.data(), e.size()));
-  }
-  EXPECT_THROW(al.end(pA_qq), std::logic_error);
+  EXPECT_THROW(assemble_cells(al, pA, {1, 0}), std::logic_error);
 
   // rhs_u += gamma B^T W^-1 (r_q - A_qq z_q)|_p with the assembled B and W
   Eigen::MatrixXd B(nodes, 3 * nodes);

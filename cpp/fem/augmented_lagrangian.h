@@ -24,6 +24,13 @@ namespace muscle
 /// those of the 4 x 4 x 4 cells around it, six times A's nonzeros
 /// (BENCHMARKS.md, "Preconditioners against kappa").  The constraint rows' share
 /// in the right-hand side is a product with vectors, so it uses the global W.
+///
+/// One assembled Q2 matrix, not two.  A_gamma is summed into A's own storage, and
+/// GMRES's A is the operator A_gamma - gamma B_b^T W_b^-1 B_b (jacobian_block),
+/// with B_b the cells' p rows side by side (one row per cell and node, "broken")
+/// and W_b their cells' lumped masses: B_b has 8 rows of 81 entries per cell
+/// where A has 24 of about 180, so A's copy cost 4 to 5 times what B_b costs
+/// (BENCHMARKS.md, "Taylor-Hood").
 class AugmentedLagrangian
 {
 public:
@@ -35,25 +42,29 @@ public:
 
   double gamma() const { return _gamma; }
 
-  /// Starts A_gamma as a copy of A (local-to-global map with block size 3).
-  /// Then add_cell_mass for every cell of A_qq's assembly and add_cell_coupling
-  /// for every cell of A_qu's, in the same cell order, with the blocked local
-  /// dofs and row-major element matrices that DOLFINx's assembler hands on
-  /// (q = (theta, p) interleaved per degree-1 node, block size 2; u: 3).
-  /// The same matrix object while A's nonzero pattern holds; a new pattern gives
-  /// a new object that carries the old one's near-null space.
+  /// A, just assembled (local-to-global map with block size 3), becomes A_gamma
+  /// in place.  Then add_cell_mass for every cell of A_qq's assembly and
+  /// add_cell_coupling for every cell of A_qu's, in the same cell order, with the
+  /// blocked local dofs and row-major element matrices that DOLFINx's assembler
+  /// hands on (q = (theta, p) interleaved per degree-1 node, block size 2; u: 3).
   void begin(Mat A);
   void add_cell_mass(std::span<const std::int32_t> q_dofs, std::span<const double> A_qq_e);
   void add_cell_coupling(std::span<const std::int32_t> q_dofs,
                          std::span<const std::int32_t> u_dofs, std::span<const double> A_qu_e);
-  /// Closes A_gamma and takes the global lumped W from the assembled A_qq (its
-  /// (theta, p) block is -M).  Throws, on every rank, std::logic_error if the
-  /// cells of the two assemblies did not match on some rank (checked here, not
-  /// inside the assembler's loop) and std::runtime_error if PETSc refused an
-  /// insertion.
+  /// Closes A_gamma and B_b and takes the global lumped W from the assembled A_qq
+  /// (its (theta, p) block is -M).  Throws, on every rank, std::logic_error if the
+  /// cells of the two assemblies did not match on some rank, or their number
+  /// changed since the first assembly (checked here, not inside the assembler's
+  /// loop), and std::runtime_error if PETSc refused an insertion.
   void end(Mat A_qq);
-  /// A_gamma = A + gamma sum_c B_c^T W_c^-1 B_c, owned here
+  /// A_gamma = A + gamma sum_c B_c^T W_c^-1 B_c: the matrix begin() was given
   Mat matrix() const { return _A_gamma; }
+
+  /// The Jacobian's displacement block as an operator (MatShell, owned here):
+  /// base - gamma B_b^T W_b^-1 B_b, or under a constraint u = T x base -
+  /// gamma T^T B_b^T W_b^-1 B_b T, with base A_gamma or T^T A_gamma T.  Made on the
+  /// first call (after the first end()); it follows base's and B_b's values.
+  Mat jacobian_block(Mat base, Mat T);
 
   /// rhs_u += gamma B^T W^-1 (r_q - A_qq z_q) on the p rows: the displacement
   /// rows' share of the constraint rows, for the upper block factorisation.
@@ -61,18 +72,32 @@ public:
   PetscErrorCode add_constraint_rows(Vec rhs_u, Vec r_q, Vec z_q, Mat A_qu, Mat A_qq);
 
 private:
+  static PetscErrorCode multiply(Mat shell, Vec x, Vec y);
+  void release_csr();
+
   double _gamma;
   Vec _w_inv = nullptr;          ///< W^-1 on p rows, 0 on theta rows
   Vec _work = nullptr;           ///< q-sized
-  Mat _A_gamma = nullptr;
-  PetscObjectState _pattern = -1; ///< A's nonzero state when _A_gamma was made
+  Mat _A_gamma = nullptr;        ///< begin()'s A, not owned
   std::vector<double> _cell_w;   ///< per cell, its p dofs' lumped mass
   std::vector<std::int32_t> _cell_q; ///< per cell, its q dofs (to check the order)
   std::size_t _next = 0;         ///< add_cell_coupling's place in _cell_w
   bool _order_broken = false;
-  bool _insert_failed = false;   ///< a MatSetValuesBlockedLocal error
+  bool _insert_failed = false;   ///< a MatSetValues(Blocked)Local error
   std::vector<double> _K;        ///< one cell's gamma B_c^T W_c^-1 B_c
   std::vector<PetscInt> _u_dofs;
+  std::vector<PetscInt> _columns; ///< one cell's u dofs, global and unblocked
+
+  Mat _B = nullptr;              ///< B_b: a row per cell and node, global u columns
+  PetscInt _B_start = 0;         ///< B_b's first owned row
+  Vec _minus_d = nullptr;        ///< -gamma / W_b, per row of B_b
+  std::vector<PetscInt> _B_ptr, _B_cols; ///< B_b's first assembly, in CSR
+  std::vector<double> _B_values;
+
+  Mat _shell = nullptr;
+  Mat _base = nullptr, _T = nullptr; ///< jacobian_block's, not owned
+  Vec _Bx = nullptr;             ///< B_b's rows
+  Vec _full_x = nullptr, _full_y = nullptr; ///< u's full layout, under a constraint
 };
 
 } // namespace muscle

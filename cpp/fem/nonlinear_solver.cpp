@@ -336,7 +336,6 @@ NonlinearSolver::~NonlinearSolver()
     MatDestroy(&M);
   for (Mat& M : _th_reduced)
     MatDestroy(&M);
-  MatDestroy(&_A_gamma_red);
   MatDestroy(&_J_nest);
   MatDestroy(&_schur_pre);
   KSPDestroy(&_u_ksp);
@@ -365,6 +364,10 @@ NonlinearSolver::~NonlinearSolver()
 
 Mat NonlinearSolver::system_matrix()
 {
+  if (_taylor_hood)
+    throw InputError("the Newton matrix of Taylor-Hood elements holds the pressure: its "
+                     "condition number needs a displacement element "
+                     "(element.taylor_hood: false)");
   if (_constraint and _soft)
   {
     // the penalty split keeps no T^T A T: formed from the last A on each call

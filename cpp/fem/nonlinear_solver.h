@@ -299,18 +299,16 @@ private:
   Vec _mix_u_rhs = nullptr;
   double _al_gamma = 0;      ///< -al_gamma: the penalty over mu at rest; 0: off
   double _shear_modulus = 0; ///< of the law at rest (the Schur approximation's scale)
-  /// the coupling blocks under the constraint: T^T A_uq, A_qu T (and T^T A_gamma T)
+  /// the coupling blocks under the constraint: T^T A_uq, A_qu T
   void reduce_mixed_blocks(bool first);
   std::array<Mat, 2> _th_reduced{};
-  Mat _A_gamma_red = nullptr;       ///< T^T A_gamma T under a constraint
-  PetscObjectId _A_gamma_id = 0;    ///< the A_gamma object _A_gamma_red was made from
-  PetscObjectState _A_gamma_state = -1; ///< and its nonzero state then
   /// the coupling block i (0: A_uq, 1: A_qu) on the unknowns Newton solves for
   Mat coupling_block(int i) const { return _constraint ? _th_reduced[i] : _th_blocks[i]; }
   bool _taylor_hood = false;
   std::unique_ptr<dolfinx::la::Vector<double>> _bq; ///< q residual, with ghosts
   std::array<Mat, 3> _th_blocks{};  ///< dR_u/dq, dR_q/du, dR_q/dq
-  Mat _J_nest = nullptr;  ///< [[A, A_uq], [A_qu, A_qq]]
+  /// [[A, A_uq], [A_qu, A_qq]]; A an operator under the augmented Lagrangian
+  Mat _J_nest = nullptr;
   Mat _J_mixed = nullptr; ///< the nest assembled (MUMPS only; GMRES takes the nest)
   PetscObjectState _mixed_state = -1; ///< A's nonzero state when _J_mixed was made
   std::vector<double> _q_converged; ///< q of the last converged solve (owned)
@@ -366,7 +364,9 @@ private:
   NewtonOptions _options;
 
   SNES _snes = nullptr;
-  Mat _A = nullptr;       ///< full Jacobian
+  /// full Jacobian (Taylor-Hood's displacement block; A_gamma once the augmented
+  /// Lagrangian has added its cells' terms)
+  Mat _A = nullptr;
   Mat _A_red = nullptr;   ///< T^T A T when constrained (the penalty split forms none)
   Vec _full_tmp = nullptr; ///< full layout, owned part: A (T x) of multiply_reduced
   Mat _ptap = nullptr;    ///< T^T A T recomputed after A gained nonzeros, copied into _A_red

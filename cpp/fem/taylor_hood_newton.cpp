@@ -41,8 +41,10 @@ std::int32_t owned_size(const la::Vector<double>& v)
 double shear_modulus_at_rest(const ParameterSet& parameters, const std::string& kernels);
 
 /// The infinity norm of a nest of AIJ blocks, not assembled: per row, |a_ij| summed
-/// over its block row (MatNorm takes a nest's Frobenius norm only).
-double nest_infinity_norm(Mat nest)
+/// over its block row (MatNorm takes a nest's Frobenius norm only).  uu is read in
+/// place of the (u, u) block, which is an operator under the augmented Lagrangian:
+/// A_gamma there, whose rows are larger than A's by the cells' terms.
+double nest_infinity_norm(Mat nest, Mat uu)
 {
   PetscInt rows, cols;
   Mat** blocks;
@@ -56,12 +58,13 @@ double nest_infinity_norm(Mat nest)
     for (PetscInt j = 0; j < cols; ++j)
       for (PetscInt r = start; r < end; ++r)
       {
+        Mat block = i == 0 and j == 0 ? uu : blocks[i][j];
         PetscInt n;
         const PetscScalar* values;
-        MatGetRow(blocks[i][j], r, &n, nullptr, &values);
+        MatGetRow(block, r, &n, nullptr, &values);
         for (PetscInt k = 0; k < n; ++k)
           sums[r - start] += std::abs(values[k]);
-        MatRestoreRow(blocks[i][j], r, &n, nullptr, &values);
+        MatRestoreRow(block, r, &n, nullptr, &values);
       }
     for (double s : sums)
       largest = std::max(largest, s);
@@ -107,29 +110,11 @@ void NonlinearSolver::create_pressure_unknowns()
 
 void NonlinearSolver::reduce_mixed_blocks(bool first)
 {
-  // T^T A_uq and A_qu T: products of their own, recomputed in place later
+  // T^T A_uq and A_qu T: products of their own, recomputed in place later (with
+  // the augmented Lagrangian T^T A T is T^T A_gamma T: A holds A_gamma)
   const MatReuse reuse = first ? MAT_INITIAL_MATRIX : MAT_REUSE_MATRIX;
   MatTransposeMatMult(_constraint->T(), _th_blocks[0], reuse, PETSC_DEFAULT, &_th_reduced[0]);
   MatMatMult(_th_blocks[1], _constraint->T(), reuse, PETSC_DEFAULT, &_th_reduced[1]);
-  if (!_augmented)
-    return;
-  // A_gamma is a new object when A's pattern changed (contact): a new product then
-  // (the state too: a numeric product on a stale symbolic one reads past its arrays)
-  Mat A_gamma = _augmented->matrix();
-  PetscObjectId id;
-  PetscObjectGetId(reinterpret_cast<PetscObject>(A_gamma), &id);
-  PetscObjectState state;
-  MatGetNonzeroState(A_gamma, &state);
-  if (_A_gamma_red and id == _A_gamma_id and state == _A_gamma_state)
-    MatPtAP(A_gamma, _constraint->T(), MAT_REUSE_MATRIX, PETSC_DEFAULT, &_A_gamma_red);
-  else
-  {
-    MatDestroy(&_A_gamma_red);
-    MatPtAP(A_gamma, _constraint->T(), MAT_INITIAL_MATRIX, PETSC_DEFAULT, &_A_gamma_red);
-    MatSetBlockSize(_A_gamma_red, _reduced_bs);
-    _A_gamma_id = id;
-    _A_gamma_state = state;
-  }
 }
 
 void NonlinearSolver::set_mixed_state(Vec x)
@@ -254,7 +239,11 @@ void NonlinearSolver::assemble_mixed_jacobian()
   }
   if (first)
   {
-    Mat blocks[4] = {A, coupling[0], coupling[1], _th_blocks[2]};
+    // with the augmented Lagrangian A holds A_gamma, and GMRES's block is A_gamma
+    // less the cells' terms, an operator
+    Mat uu = _augmented ? _augmented->jacobian_block(A, _constraint ? _constraint->T() : nullptr)
+                        : A;
+    Mat blocks[4] = {uu, coupling[0], coupling[1], _th_blocks[2]};
     MatCreateNest(_problem.mesh()->comm(), 2, nullptr, 2, nullptr, blocks, &_J_nest);
   }
   MatAssemblyBegin(_J_nest, MAT_FINAL_ASSEMBLY);
@@ -283,7 +272,7 @@ void NonlinearSolver::assemble_mixed_jacobian()
     MatNorm(_J_mixed, NORM_INFINITY, &_mixed_norm);
   }
   else
-    _mixed_norm = nest_infinity_norm(_J_nest);
+    _mixed_norm = nest_infinity_norm(_J_nest, A);
   if (_schur_pre)
     update_schur_preconditioner();
   if (_u_ksp)
@@ -621,10 +610,9 @@ std::vector<IS> NonlinearSolver::reduced_star_patches() const
 
 void NonlinearSolver::update_mixed_shell(bool coarse)
 {
-  // A changes in place; A_gamma too, but for a new object when A's nonzero pattern
-  // changes, so the near-null space goes on each time (GAMG reads it at set-up)
-  Mat op = _augmented ? (_constraint ? _A_gamma_red : _augmented->matrix())
-                      : (_constraint ? _A_red : _A);
+  // A changes in place (with the augmented Lagrangian it holds A_gamma); the
+  // near-null space goes on each time (GAMG reads it at set-up)
+  Mat op = _constraint ? _A_red : _A;
   if (!_coarsening)
     MatSetNearNullSpace(op, _near_null_space);
   KSPSetOperators(_u_ksp, op, op);
