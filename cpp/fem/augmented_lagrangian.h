@@ -29,8 +29,8 @@ namespace muscle
 /// GMRES's A is the operator A_gamma - gamma B_b^T W_b^-1 B_b (jacobian_block),
 /// with B_b the cells' p rows side by side (one row per cell and node, "broken")
 /// and W_b their cells' lumped masses: B_b has 8 rows of 81 entries per cell
-/// where A has 24 of about 180, so A's copy cost 4 to 5 times what B_b costs
-/// (BENCHMARKS.md, "Taylor-Hood").
+/// where A has about 24 of 180, a seventh of A's storage (fusiform n = 1: 17
+/// against 117 MiB; BENCHMARKS.md, "Preconditioners against kappa").
 class AugmentedLagrangian
 {
 public:
