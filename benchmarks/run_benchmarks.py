@@ -78,7 +78,7 @@ import time
 import report
 import stiffsoft
 import taylor_hood
-from report import KAPPA_CANDIDATES, LINE_SEARCHES, STARS_CANDIDATE
+from report import KAPPA_CANDIDATES, LINE_SEARCHES, STARS_CANDIDATE, STARS_CHEBYSHEV_CANDIDATE
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -161,7 +161,7 @@ def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc
         name += "_" + s.replace("=", "")
     for p in petsc:
         name += "_" + p.strip("-").replace(" ", "")
-    return name
+    return report.short_name(name)
 
 
 def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, dt=0.05,
@@ -189,7 +189,7 @@ def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, d
         adopted = adopt(name, out, dict(model=model, case=case, cell=cell, degree=degree,
                                         element=element, fbar=fbar,
                                         n=n, dt=dt, solver=solver, ranks=np, sets=list(sets),
-                                        petsc=list(petsc), group=group))
+                                        petsc=list(petsc), group=group, linear_rtol=rtol))
         if adopted:
             return adopted
     os.makedirs(out, exist_ok=True)
@@ -557,6 +557,8 @@ def phase_fbar(args, records):
 # on (u | theta, p), the inf-sup stable pair.
 KAPPA_ELEMENTS = {label: (dict(degree=2, taylor_hood=True), (1, 2, 3), 900)
                   for label in KAPPA_CANDIDATES if label.startswith("Taylor-Hood")}
+# n = 4 (3.3 M unknowns, about 21 GB on two ranks) with Chebyshev on the q block only
+KAPPA_ELEMENTS[STARS_CHEBYSHEV_CANDIDATE] = (dict(degree=2, taylor_hood=True), (1, 2, 4), 900)
 
 
 def kappa_runs(args):
@@ -1244,7 +1246,8 @@ KAPPA_PLOTTED = (
     ("BoomerAMG, systems", "Q1F", "tab:brown", "--"),
     ("penalty split, lower", "Q1F", "tab:blue", "-"),
     ("Taylor-Hood, Schur split", "Q2TH", "tab:orange", "-"),
-    (STARS_CANDIDATE, "Q2TH", "tab:green", "-"))
+    (STARS_CANDIDATE, "Q2TH", "tab:green", "-"),
+    (STARS_CHEBYSHEV_CANDIDATE, "Q2TH", "tab:olive", "-."))
 
 
 def plot_kappa(runs, path):
