@@ -839,7 +839,9 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
                                &l2g);
   MatSetLocalToGlobalMapping(pA, l2g, l2g);
   ISLocalToGlobalMappingDestroy(&l2g);
-  auto assemble_cells = [&](AugmentedLagrangian& al, Mat A_now, std::array<int, 2> order)
+  // scale: the coupling's element matrices times scale (each call's B_b must be refilled)
+  auto assemble_cells = [&](AugmentedLagrangian& al, Mat A_now, std::array<int, 2> order,
+                            double scale = 1.0)
   {
     al.begin(A_now);
     for (int c = 0; c < 2; ++c)
@@ -849,7 +851,7 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
     }
     for (int c : order)
     {
-      const Eigen::Matrix<double, 4, 6, Eigen::RowMajor> e = qu_e[c];
+      const Eigen::Matrix<double, 4, 6, Eigen::RowMajor> e = scale * qu_e[c];
       al.add_cell_coupling(cells[c], cells[c], std::span(e.data(), e.size()));
     }
     al.end(pA_qq);
@@ -872,9 +874,10 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
           MatSetValue(pA, i, j, expected_A(i, j), INSERT_VALUES);
     MatAssemblyBegin(pA, MAT_FINAL_ASSEMBLY);
     MatAssemblyEnd(pA, MAT_FINAL_ASSEMBLY);
-    assemble_cells(al, pA, {0, 1});
+    const double scale = std::array<double, 3>{1.0, 2.0, 0.5}[call];
+    assemble_cells(al, pA, {0, 1}, scale);
     EXPECT_EQ(al.matrix(), pA);
-    const Eigen::MatrixXd expected = expected_A + cell_sum;
+    const Eigen::MatrixXd expected = expected_A + scale * scale * cell_sum;
     const Eigen::MatrixXd got = dense_copy(al.matrix());
     EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff())
         << "call " << call;

@@ -21,6 +21,8 @@ AugmentedLagrangian::~AugmentedLagrangian()
 void AugmentedLagrangian::begin(Mat A)
 {
   _A_gamma = A;
+  if (!_B)
+    release_csr(); // a first assembly that threw before end() left its rows
   _cell_w.clear();
   _cell_q.clear();
   _next = 0;

@@ -364,10 +364,6 @@ NonlinearSolver::~NonlinearSolver()
 
 Mat NonlinearSolver::system_matrix()
 {
-  if (_taylor_hood)
-    throw InputError("the Newton matrix of Taylor-Hood elements holds the pressure: its "
-                     "condition number needs a displacement element "
-                     "(element.taylor_hood: false)");
   if (_constraint and _soft)
   {
     // the penalty split keeps no T^T A T: formed from the last A on each call

@@ -621,8 +621,7 @@ void NonlinearSolver::update_mixed_shell(bool coarse)
   PC u_pc;
   KSPGetPC(_u_ksp, &u_pc);
   // PCMG keeps the fine level's smoother operator and residual matrix from its
-  // first set-up when the new operator is another object (A_gamma after a change
-  // of A's nonzero pattern): both from op, each time
+  // first set-up when the new operator is another object: both from op, each time
   KSP fine;
   PCMGGetSmoother(u_pc, 1, &fine);
   KSPSetOperators(fine, op, op);
