@@ -750,6 +750,22 @@ Eigen::MatrixXd dense_copy(Mat M)
   }
   return D;
 }
+/// D as a displacement block: block size 3, the nodes numbered alike locally and
+/// globally (begin() inserts through the local-to-global map)
+Mat displacement_copy(const Eigen::MatrixXd& D)
+{
+  Mat M = sparse_copy(D);
+  MatSetBlockSize(M, 3);
+  std::vector<PetscInt> identity(D.rows() / 3);
+  std::iota(identity.begin(), identity.end(), 0);
+  ISLocalToGlobalMapping l2g;
+  ISLocalToGlobalMappingCreate(PETSC_COMM_SELF, 3, identity.size(), identity.data(),
+                               PETSC_COPY_VALUES, &l2g);
+  MatSetLocalToGlobalMapping(M, l2g, l2g);
+  ISLocalToGlobalMappingDestroy(&l2g);
+  return M;
+}
+
 /// An operator's matrix, column by column from its products with unit vectors
 Eigen::MatrixXd dense_operator(Mat M)
 {
@@ -831,14 +847,7 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
   // A_gamma in A's own storage, GMRES's A an operator: on the first call, on the
   // update in place, and after a new nonzero in A (contact coupling nodes 0 and 2)
   AugmentedLagrangian al(gamma);
-  Mat pA = sparse_copy(A), pA_qu = sparse_copy(A_qu), pA_qq = sparse_copy(A_qq);
-  MatSetBlockSize(pA, 3);
-  std::vector<PetscInt> identity = {0, 1, 2};
-  ISLocalToGlobalMapping l2g;
-  ISLocalToGlobalMappingCreate(PETSC_COMM_SELF, 3, nodes, identity.data(), PETSC_COPY_VALUES,
-                               &l2g);
-  MatSetLocalToGlobalMapping(pA, l2g, l2g);
-  ISLocalToGlobalMappingDestroy(&l2g);
+  Mat pA = displacement_copy(A), pA_qu = sparse_copy(A_qu), pA_qq = sparse_copy(A_qq);
   // scale: the coupling's element matrices times scale (each call's B_b must be refilled)
   auto assemble_cells = [&](AugmentedLagrangian& al, Mat A_now, std::array<int, 2> order,
                             double scale = 1.0)
@@ -893,13 +902,7 @@ TEST(AugmentedLagrangian, MatchesDenseAlgebra)
     for (int i = 0; i < 3 * nodes; ++i)
       T_dense(i, i % 4) = 1.0 + 0.1 * i; // every full dof on one reduced unknown
     Mat T = sparse_copy(T_dense);
-    Mat A_full = sparse_copy(A);
-    MatSetBlockSize(A_full, 3);
-    ISLocalToGlobalMapping map;
-    ISLocalToGlobalMappingCreate(PETSC_COMM_SELF, 3, nodes, identity.data(), PETSC_COPY_VALUES,
-                                 &map);
-    MatSetLocalToGlobalMapping(A_full, map, map);
-    ISLocalToGlobalMappingDestroy(&map);
+    Mat A_full = displacement_copy(A);
     AugmentedLagrangian constrained(gamma);
     assemble_cells(constrained, A_full, {0, 1});
     Mat reduced;

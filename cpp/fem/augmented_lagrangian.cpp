@@ -64,6 +64,14 @@ void AugmentedLagrangian::add_cell_coupling(std::span<const std::int32_t> q_dofs
   ISLocalToGlobalMapping l2g;
   MatGetLocalToGlobalMapping(_A_gamma, nullptr, &l2g);
   ISLocalToGlobalMappingApply(l2g, m, _columns.data(), _columns.data());
+  if (!_B and _B_ptr.empty())
+  {
+    // every cell has as many rows and columns: no growth past B_b's size
+    _B_ptr.reserve(_cell_w.size() + 1);
+    _B_cols.reserve(_cell_w.size() * m);
+    _B_values.reserve(_cell_w.size() * m);
+    _B_ptr.push_back(0);
+  }
   _K.assign(m * m, 0.0);
   for (std::size_t i = 0; i < n; ++i)
   {
@@ -80,14 +88,6 @@ void AugmentedLagrangian::add_cell_coupling(std::span<const std::int32_t> q_dofs
     }
     else
     {
-      if (_B_ptr.empty())
-      {
-        // every cell has as many rows and columns: no growth past B_b's size
-        _B_ptr.reserve(_cell_w.size() + 1);
-        _B_cols.reserve(_cell_w.size() * m);
-        _B_values.reserve(_cell_w.size() * m);
-        _B_ptr.push_back(0);
-      }
       _B_cols.insert(_B_cols.end(), _columns.begin(), _columns.end());
       _B_values.insert(_B_values.end(), b, b + m);
       _B_ptr.push_back(_B_cols.size());
@@ -112,8 +112,6 @@ void AugmentedLagrangian::end(Mat A_qq)
   // the others waiting in the next collective call
   int broken[2] = {_order_broken or _next != _cell_q.size() or B_rows != rows, _insert_failed};
   MPI_Allreduce(MPI_IN_PLACE, broken, 2, MPI_INT, MPI_MAX, comm);
-  if (broken[0] or broken[1])
-    release_csr();
   if (broken[0])
     throw std::logic_error("AugmentedLagrangian: the cells of A_qu's assembly do not follow "
                            "A_qq's, or their number changed");
