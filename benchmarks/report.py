@@ -93,8 +93,6 @@ class Results:
         return r
 
 
-# the gradings of phase reference, per case: the force's error sits at the clamped end
-# faces (z), the free shortening's towards the mantle (radially)
 def short_name(name):
     """A run's folder name within the file system's 255 bytes: a longer one (many PETSc
     options) keeps its first 160 characters and a hash of the whole."""
@@ -104,6 +102,8 @@ def short_name(name):
     return name[:160] + "_" + hashlib.sha1(name.encode()).hexdigest()[:12]
 
 
+# the gradings of phase reference, per case: the force's error sits at the clamped end
+# faces (z), the free shortening's towards the mantle (radially)
 REFERENCE_GRADINGS = {"isometric": "mesh.set.grade=4", "free": "mesh.set.grade_radial=6"}
 
 
@@ -115,6 +115,14 @@ def mesh_numbers(sets):
 # p-multigrid with its Q1 level by MUMPS, as the run names spell the options
 _EXACT_Q1 = ("_fieldsplit_u_pc_typemg_fieldsplit_u_mg_coarse_pc_typelu"
              "_fieldsplit_u_mg_coarse_pc_factor_mat_solver_typemumps")
+
+# the stars split with its Q1 matrix at every other Newton iteration, and the q block by
+# Chebyshev steps, as the run names spell the options
+_STARS_LAG2 = ("_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
+               "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2")
+_CHEBYSHEV_Q = ("_fieldsplit_q_ksp_typechebyshev_fieldsplit_q_ksp_max_it8"
+                "_fieldsplit_q_ksp_norm_typenone_fieldsplit_q_pc_typepbjacobi"
+                "_fieldsplit_q_ksp_chebyshev_eigenvalues0.12,3.4")
 
 # Run aliases for the template: COMBI, 0.05 s steps, MUMPS on one rank unless the name
 # says otherwise; q1 plain trilinear hexahedra, fb F-bar, q2 triquadratic, p1/p2
@@ -269,22 +277,19 @@ RUNS = {
     "ktl3_k1000": "kappa_combi_isometric_hex2th_n3_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
                   "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
                   "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2",
-    # the same with Chebyshev on the q block (ktc): n = 1 and 2 (n = 4 by hand)
-    **{f"ktc{n if n > 1 else ''}_k1000": short_name(
-       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{min(n, 2)}_rtol1e-06_kappa1000"
-       "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
-       "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2"
-       "_fieldsplit_q_ksp_typechebyshev_fieldsplit_q_ksp_max_it8_fieldsplit_q_ksp_norm_typenone"
-       "_fieldsplit_q_pc_typepbjacobi_fieldsplit_q_ksp_chebyshev_eigenvalues0.12,3.4")
-       for n in (1, 2)},
+    # the same with Chebyshev on the q block (ktc, gmres-stars): n = 1 and 2 at
+    # kappa = 10 ... 10^4 (n = 4 by hand)
+    **{f"ktc{n if n > 1 else ''}_k{k}": short_name(
+       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
+       + _STARS_LAG2 + _CHEBYSHEV_Q)
+       for n in (1, 2) for k in (10, 100, 1000, 10000)},
     # the free contraction (the uniform-axial constraint) at kappa = 1000, phase
-    # kappa-free: the plain split (kfp) and the stars split, lag 2 (kfs); _free2: n = 2
-    **{f"{key}_free{n if n > 1 else ''}":
-       f"kappa_combi_free_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa1000{suffix}"
-       for key, suffix in (("kfp", ""),
-                           ("kfs", "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels"
-                                   "_pc_typestars_fieldsplit_u_mg_coarse_pc_typehypre"
-                                   "_fieldsplit_u_mg_coarse_lag2"))
+    # kappa-free: the plain split (kfp), the stars split, lag 2 (kfs), and the same with
+    # Chebyshev on q (kfc); _free2: n = 2
+    **{f"{key}_free{n if n > 1 else ''}": short_name(
+       f"kappa_combi_free_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa1000{suffix}")
+       for key, suffix in (("kfp", ""), ("kfs", _STARS_LAG2),
+                           ("kfc", _STARS_LAG2 + _CHEBYSHEV_Q))
        for n in (1, 2)},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",

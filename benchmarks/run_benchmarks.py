@@ -623,7 +623,7 @@ def phase_kappa_free(args, records):
     shell's blocks on T^T A T's reduced unknowns) at the preset kappa, n = 1 on one rank
     and 2 on two (--kappa-refinements); those of the two in --kappa-candidates."""
     for n in args.kappa_refinements:
-        for label in ("Taylor-Hood, Schur split", STARS_CANDIDATE):
+        for label in ("Taylor-Hood, Schur split", STARS_CANDIDATE, STARS_CHEBYSHEV_CANDIDATE):
             if label not in args.kappa_candidates:
                 continue
             kappa_run(args, records, label, case="free", n=n, np=1 if n == 1 else 2,

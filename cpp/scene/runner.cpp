@@ -73,6 +73,11 @@ nlohmann::json condition_number(NonlinearSolver& solver)
 void run_scene(const Scene& scene, const RunOptions& options)
 {
   const auto start = Clock::now();
+  // before the mesh: the answer would come only after the whole run
+  if (options.condition_number and scene.mesh.taylor_hood)
+    throw InputError("--condition-number: the Taylor-Hood Newton matrix holds the pressure "
+                     "(an indefinite saddle point); the estimate needs a displacement element "
+                     "(element.taylor_hood: false)");
   std::filesystem::create_directories(options.out);
   set_petsc_options(scene.petsc_options);
 

@@ -19,6 +19,7 @@ import json
 import math
 import os
 import re
+import subprocess
 import sys
 
 import pytest
@@ -463,23 +464,43 @@ def test_taylor_hood_stars_preset_yields_to_the_user(build, scratch):
     """linear: gmres-stars sets its options only where the user gave none: with
     -fieldsplit_u_pc_type gamg given, no multigrid is made and none of its options are
     set (refuse_unread_options would otherwise blame the user for the preset's lag);
-    -al_gamma given is the one used.  Without Taylor-Hood it is an input error naming
-    the element key and the F-bar split."""
-    gammas = []
-    for al_gamma in ("", " -al_gamma 3"):
-        result = cantilever(build, os.path.join(scratch, f"gamg{al_gamma}"), TAYLOR_HOOD + [
+    -al_gamma given is the one used; -fieldsplit_q_pc_type given replaces the q block's
+    Chebyshev steps whole (LU under preonly, not LU under eight Chebyshev steps).
+    Without Taylor-Hood it is an input error naming the element key and the F-bar
+    split."""
+    gammas, q_solvers = [], []
+    for given in ("", " -al_gamma 3 -fieldsplit_q_pc_type lu"):
+        result = cantilever(build, os.path.join(scratch, f"gamg{given}"), TAYLOR_HOOD + [
             "time.end=0.1", "solver.linear=gmres-stars",
-            f"solver.petsc=-fieldsplit_u_pc_type gamg -ksp_view{al_gamma}"])
+            f"solver.petsc=-fieldsplit_u_pc_type gamg -ksp_view{given}"])
         assert result.returncode == 0, result.stdout + result.stderr
         assert "gamg on u" in result.stdout and "p-multigrid" not in result.stdout, \
             result.stdout[-3000:]
         gammas.append(float(re.search(r"augmented Lagrangian \(gamma ([0-9.e+-]+) kPa\)",
                                       result.stdout).group(1)))
+        view = result.stdout[result.stdout.index("KSP Object: (fieldsplit_q_)"):]
+        q_solvers.append(re.findall(r"type: (\w+)", view)[:2])
     assert abs(gammas[1] / gammas[0] - 3) < 1e-4, gammas  # printed to six digits
+    assert q_solvers == [["chebyshev", "pbjacobi"], ["preonly", "lu"]], q_solvers
     stderr = refused_split(build, os.path.join(scratch, "fbar"), "", ["element.degree=1"],
                            "gmres-stars")
     assert "gmres-stars" in stderr and "element.taylor_hood: true" in stderr \
         and "gmres-schur" in stderr, stderr
+
+
+def test_taylor_hood_condition_number_refused_before_the_run(build, scratch):
+    """--condition-number estimates a displacement matrix; on Taylor-Hood it is refused
+    as an input error before anything is built, not after the stepping (where a throw
+    would lose the finished run's summary)."""
+    out = os.path.join(scratch, "condition")
+    command = [os.path.join(build, "muscle-run"), CANTILEVER, "--out", out,
+               "--condition-number"]
+    for s in QUIET + TAYLOR_HOOD:
+        command += ["--set", s]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2 and "--condition-number" in result.stderr \
+        and "element.taylor_hood: false" in result.stderr, result.stdout + result.stderr
+    assert not os.path.exists(out), "refused before the output directory is made"
 
 
 def test_taylor_hood_al_gamma_must_be_positive(build, scratch):
