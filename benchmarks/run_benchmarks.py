@@ -36,8 +36,9 @@ Phases (default: all but restore, in this order; each is cheap to rerun with --r
             only when --kappa-refinements names it)
   kappa-n4  the penalty split at n = 4, kappa = 1000, isometric and free, two ranks
             (full factor at linear rtol 1e-6, lower at 1e-4, lower with SSOR levels at 1e-4)
-  kappa-free  the plain and the stars Taylor-Hood splits on the free contraction,
-            kappa = 1000, n = 1 on one rank and 2 on two (--kappa-refinements)
+  kappa-free  the plain and the stars Taylor-Hood splits (the stars with MUMPS or Chebyshev
+            on q) on the free contraction, kappa = 1000, n = 1 on one rank and 2 on two
+            (--kappa-refinements)
   reference  the references of F33 and epsilon: F-bar at n = 3 and 6, isometric and free,
             with the n = 4 runs' settings (--reference-refinements; n = 2, 4, 6 are one
             family of similar meshes, n = 3 checks the extrapolation; n = 6 has 1.3 M
@@ -621,7 +622,7 @@ def phase_kappa_n4(args, records):
 def phase_kappa_free(args, records):
     """The Taylor-Hood splits on the free contraction (the uniform-axial constraint: the
     shell's blocks on T^T A T's reduced unknowns) at the preset kappa, n = 1 on one rank
-    and 2 on two (--kappa-refinements); those of the two in --kappa-candidates."""
+    and 2 on two (--kappa-refinements); those of the three in --kappa-candidates."""
     for n in args.kappa_refinements:
         for label in ("Taylor-Hood, Schur split", STARS_CANDIDATE, STARS_CHEBYSHEV_CANDIDATE):
             if label not in args.kappa_candidates:

@@ -69,13 +69,37 @@ void require_flexible_outer(const char* inner, const std::string& what)
                    + (outer.empty() ? "gmres (the default)" : outer));
 }
 
-void require_flexible_outer_under(const std::string& prefix, const std::string& what)
+namespace
 {
-  // PETSc has no query by pattern: scan the whole database ("-name value ...")
+/// The words of the whole options database ("-name value ..."): PETSc has no query by
+/// pattern
+std::istringstream all_options()
+{
   char* all = nullptr;
   PetscOptionsGetAll(nullptr, &all);
   std::istringstream words(all ? all : "");
   PetscFree(all);
+  return words;
+}
+} // namespace
+
+bool factor_options_given(const std::string& prefix)
+{
+  std::istringstream words = all_options();
+  const std::string start = "-" + prefix + "pc_factor_";
+  for (std::string word; words >> word;)
+  {
+    std::transform(word.begin(), word.end(), word.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
+    if (word.compare(0, start.size(), start) == 0)
+      return true;
+  }
+  return false;
+}
+
+void require_flexible_outer_under(const std::string& prefix, const std::string& what)
+{
+  std::istringstream words = all_options();
   const std::string start = "-" + prefix, end = "ksp_type";
   for (std::string word; words >> word;)
   {

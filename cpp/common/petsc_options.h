@@ -22,6 +22,10 @@ std::string string_option(const char* name);
 void choice_option(const char* name, std::initializer_list<const char*> allowed,
                    std::string& value);
 
+/// Whether any -`prefix`pc_factor_* option is given (e.g. prefix "fieldsplit_q_"): the
+/// user chose a factorisation there.
+bool factor_options_given(const std::string& prefix);
+
 /// An inner Krylov method (option `inner`: a -*_ksp_type other than preonly,
 /// richardson or chebyshev) makes preconditioner `what` vary between applications;
 /// right-preconditioned GMRES assumes it fixed and would report a residual its

@@ -237,13 +237,15 @@ void NonlinearSolver::expand_stars(bool taylor_hood)
                       {"-fieldsplit_u_mg_coarse_lag", "2"}});
   // the q block's Schur approximation, the degree-1 mass matrix in a 2 x 2 pattern per
   // node, by eight Chebyshev steps on Jacobi of the node blocks in place of MUMPS's
-  // factor, which grows faster than the unknowns: Jacobi keeps a trilinear mass
-  // matrix's spectrum in [1/8, 27/8] (Wathen; a linear tetrahedron's in [1/2, 5/2]),
-  // so fixed bounds and steps make a fixed linear preconditioner.  The same counts,
-  // 0.83x the memory at n = 2, and n = 4 fits on this machine (BENCHMARKS.md).  All
-  // or nothing: a q solver the user chose is left alone
+  // factor, which grows faster than the unknowns.  Jacobi keeps a constant node block
+  // times a trilinear mass matrix on parallelepipeds in [1/8, 27/8] (Wathen; linear
+  // tetrahedra [1/2, 5/2]); the bounds hold on the fusiform's curved cells and varying
+  // blocks by measurement, and fixed bounds and steps make a fixed linear
+  // preconditioner.  Counts within 11 % of MUMPS's, less memory and time
+  // (BENCHMARKS.md, "Preconditioners against kappa").  All or nothing: a q solver or
+  // factor the user chose is left alone, with the factor that is the split's default
   if (string_option("-fieldsplit_q_ksp_type").empty()
-      and string_option("-fieldsplit_q_pc_type").empty())
+      and string_option("-fieldsplit_q_pc_type").empty() and !factor_options_given("fieldsplit_q_"))
     set_unless_given({{"-fieldsplit_q_ksp_type", "chebyshev"},
                       {"-fieldsplit_q_ksp_max_it", "8"},
                       {"-fieldsplit_q_ksp_norm_type", "none"},

@@ -164,7 +164,7 @@ CLI::Option* add_run_options(CLI::App& app, RunOptions& options)
                  "passive forms before the run");
   app.add_flag("--condition-number", options.condition_number,
                "after the run: the condition number of the last Newton matrix (SLEPc) into "
-               "summary.json");
+               "summary.json; not with Taylor-Hood elements");
   return out;
 }
 

@@ -294,7 +294,8 @@ def test_taylor_hood_two_ranks(build, scratch):
     under GAMG, under p-multigrid and under p-multigrid relaxing on vertex stars above
     BoomerAMG, its Q1 matrix made at every other Newton iteration only: linear
     gmres-stars, which must expand to -fieldsplit_u_mg_levels_pc_type stars
-    -fieldsplit_u_mg_coarse_pc_type hypre -fieldsplit_u_mg_coarse_lag 2): the same tip.
+    -fieldsplit_u_mg_coarse_pc_type hypre -fieldsplit_u_mg_coarse_lag 2, and to eight
+    Chebyshev steps on node-block Jacobi on the q block): the same tip.
     The preconditioner does not change the system, so a wrong block (a sign, a
     transpose, W^-1 on the wrong rows) shows as GMRES failing within its 2000
     iterations or a different tip."""
@@ -323,6 +324,11 @@ def test_taylor_hood_two_ranks(build, scratch):
     assert "augmented Lagrangian (gamma" in views[4] and "gamg on u" in views[4], views[4][-3000:]
     for line in ("augmented Lagrangian (gamma", "its Q1 product every 2 Newton iterations"):
         assert line in views[6], (line, views[6][-3000:])
+    q_solver = views[6][views[6].index("KSP Object: (fieldsplit_q_)"):]
+    q_solver = q_solver[:q_solver.index("KSP Object: (fieldsplit_u_)")]
+    for line in ("type: chebyshev", "min 0.12, max 3.4", "maximum iterations=8",
+                 "NONE norm type", "type: pbjacobi", "point-block size 2"):
+        assert line in q_solver, (line, q_solver)
     fine = views[6].index("(fieldsplit_u_mg_levels_1_)")  # the Q2 level's smoother
     smoother = views[6][fine:fine + 3000]
     assert "type: stars" in smoother, smoother
@@ -464,12 +470,14 @@ def test_taylor_hood_stars_preset_yields_to_the_user(build, scratch):
     """linear: gmres-stars sets its options only where the user gave none: with
     -fieldsplit_u_pc_type gamg given, no multigrid is made and none of its options are
     set (refuse_unread_options would otherwise blame the user for the preset's lag);
-    -al_gamma given is the one used; -fieldsplit_q_pc_type given replaces the q block's
-    Chebyshev steps whole (LU under preonly, not LU under eight Chebyshev steps).
+    -al_gamma given is the one used; -fieldsplit_q_pc_type, -fieldsplit_q_ksp_type or a
+    -fieldsplit_q_pc_factor_ option given replaces the q block's Chebyshev steps whole
+    (MUMPS under preonly, not LU under eight Chebyshev steps, nor factor options unread).
     Without Taylor-Hood it is an input error naming the element key and the F-bar
     split."""
     gammas, q_solvers = [], []
-    for given in ("", " -al_gamma 3 -fieldsplit_q_pc_type lu"):
+    for given in ("", " -al_gamma 3 -fieldsplit_q_pc_type lu", " -fieldsplit_q_ksp_type preonly",
+                  " -fieldsplit_q_pc_factor_mat_solver_type mumps"):
         result = cantilever(build, os.path.join(scratch, f"gamg{given}"), TAYLOR_HOOD + [
             "time.end=0.1", "solver.linear=gmres-stars",
             f"solver.petsc=-fieldsplit_u_pc_type gamg -ksp_view{given}"])
@@ -481,7 +489,7 @@ def test_taylor_hood_stars_preset_yields_to_the_user(build, scratch):
         view = result.stdout[result.stdout.index("KSP Object: (fieldsplit_q_)"):]
         q_solvers.append(re.findall(r"type: (\w+)", view)[:2])
     assert abs(gammas[1] / gammas[0] - 3) < 1e-4, gammas  # printed to six digits
-    assert q_solvers == [["chebyshev", "pbjacobi"], ["preonly", "lu"]], q_solvers
+    assert q_solvers == [["chebyshev", "pbjacobi"]] + [["preonly", "lu"]] * 3, q_solvers
     stderr = refused_split(build, os.path.join(scratch, "fbar"), "", ["element.degree=1"],
                            "gmres-stars")
     assert "gmres-stars" in stderr and "element.taylor_hood: true" in stderr \
