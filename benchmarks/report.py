@@ -116,13 +116,23 @@ def mesh_numbers(sets):
 _EXACT_Q1 = ("_fieldsplit_u_pc_typemg_fieldsplit_u_mg_coarse_pc_typelu"
              "_fieldsplit_u_mg_coarse_pc_factor_mat_solver_typemumps")
 
-# the stars split with its Q1 matrix at every other Newton iteration, and the q block by
-# Chebyshev steps, as the run names spell the options
-_STARS_LAG2 = ("_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
-               "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2")
-_CHEBYSHEV_Q = ("_fieldsplit_q_ksp_typechebyshev_fieldsplit_q_ksp_max_it8"
-                "_fieldsplit_q_ksp_norm_typenone_fieldsplit_q_pc_typepbjacobi"
-                "_fieldsplit_q_ksp_chebyshev_eigenvalues0.12,3.4")
+def options_suffix(petsc):
+    """PETSc options as a run's name spells them: "-a b" -> "_ab"."""
+    return "".join("_" + p.strip("-").replace(" ", "") for p in petsc)
+
+
+# the stars split, augmented, its Q1 matrix made at every other Newton iteration; and the
+# q block's Schur approximation applied by eight Chebyshev steps on its node blocks in
+# place of MUMPS: the pressure mass matrix's diagonal bounds its spectrum (trilinear
+# hexahedra: 1/8 ... 27/8), and the factor grows faster than the unknowns
+STARS_LAG2_OPTIONS = ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
+                      "-fieldsplit_u_mg_levels_pc_type stars",
+                      "-fieldsplit_u_mg_coarse_pc_type hypre", "-fieldsplit_u_mg_coarse_lag 2")
+CHEBYSHEV_ON_Q = ("-fieldsplit_q_ksp_type chebyshev", "-fieldsplit_q_ksp_max_it 8",
+                  "-fieldsplit_q_ksp_norm_type none", "-fieldsplit_q_pc_type pbjacobi",
+                  "-fieldsplit_q_ksp_chebyshev_eigenvalues 0.12,3.4")
+_STARS_LAG2 = options_suffix(STARS_LAG2_OPTIONS)
+_CHEBYSHEV_Q = options_suffix(CHEBYSHEV_ON_Q)
 
 # Run aliases for the template: COMBI, 0.05 s steps, MUMPS on one rank unless the name
 # says otherwise; q1 plain trilinear hexahedra, fb F-bar, q2 triquadratic, p1/p2
@@ -275,8 +285,7 @@ RUNS = {
        for n, kappas in ((1, (10, 100, 1000, 10000)), (2, n2)) for k in kappas},
     # and n = 3 (1.4 M unknowns, lag 2, kappa = 1000)
     "ktl3_k1000": "kappa_combi_isometric_hex2th_n3_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-                  "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
-                  "_fieldsplit_u_mg_coarse_pc_typehypre_fieldsplit_u_mg_coarse_lag2",
+                  + _STARS_LAG2,
     # the same with Chebyshev on the q block (ktc, gmres-stars): n = 1 and 2 at
     # kappa = 10 ... 10^4 (n = 4 by hand)
     **{f"ktc{n if n > 1 else ''}_k{k}": short_name(
@@ -732,13 +741,8 @@ SOLVER_NAMES = {"lu": "MUMPS", "gmres-gamg": "GAMG", "gmres-hypre": "BoomerAMG"}
 # the muscle's best split: p-multigrid relaxing Q2 on vertex stars above BoomerAMG on
 # Q1, augmented, its Q1 matrix made at every other Newton iteration
 STARS_CANDIDATE = "Taylor-Hood, Schur split, augmented Lagrangian, p-multigrid, stars, BoomerAMG, lag 2"
-# the same with the q block's Schur approximation applied by eight Chebyshev steps on its
-# node blocks in place of MUMPS: the pressure mass matrix's diagonal bounds its spectrum
-# (trilinear hexahedra: 1/8 ... 27/8), and the factor grows faster than the unknowns
+# the same with Chebyshev steps on the q block (CHEBYSHEV_ON_Q): gmres-stars
 STARS_CHEBYSHEV_CANDIDATE = STARS_CANDIDATE + ", Chebyshev on q"
-CHEBYSHEV_ON_Q = ("-fieldsplit_q_ksp_type chebyshev", "-fieldsplit_q_ksp_max_it 8",
-                  "-fieldsplit_q_ksp_norm_type none", "-fieldsplit_q_pc_type pbjacobi",
-                  "-fieldsplit_q_ksp_chebyshev_eigenvalues 0.12,3.4")
 KAPPA_CANDIDATES = {
     "MUMPS": ("lu", ()),
     "GAMG": ("gmres-gamg", ()),
@@ -802,16 +806,8 @@ KAPPA_CANDIDATES = {
                         "-fieldsplit_u_mg_coarse_pc_type hypre")),
     # the same with the Galerkin Q1 matrix (and BoomerAMG's hierarchy) made at every
     # other Newton iteration only
-    STARS_CANDIDATE: (
-        "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
-                        "-fieldsplit_u_mg_levels_pc_type stars",
-                        "-fieldsplit_u_mg_coarse_pc_type hypre",
-                        "-fieldsplit_u_mg_coarse_lag 2")),
-    STARS_CHEBYSHEV_CANDIDATE: (
-        "gmres-schur", ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
-                        "-fieldsplit_u_mg_levels_pc_type stars",
-                        "-fieldsplit_u_mg_coarse_pc_type hypre",
-                        "-fieldsplit_u_mg_coarse_lag 2") + CHEBYSHEV_ON_Q),
+    STARS_CANDIDATE: ("gmres-schur", STARS_LAG2_OPTIONS),
+    STARS_CHEBYSHEV_CANDIDATE: ("gmres-schur", STARS_LAG2_OPTIONS + CHEBYSHEV_ON_Q),
     "Taylor-Hood, Schur split, p-multigrid, exact Q1": (
         "gmres-schur", ("-fieldsplit_u_pc_type mg", "-fieldsplit_u_mg_coarse_pc_type lu",
                         "-fieldsplit_u_mg_coarse_pc_factor_mat_solver_type mumps")),

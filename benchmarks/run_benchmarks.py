@@ -160,9 +160,7 @@ def run_name(model, case, cell, degree, n, dt, solver="lu", np=1, sets=(), petsc
         name += f"_rtol{rtol:g}"
     for s in sets:
         name += "_" + s.replace("=", "")
-    for p in petsc:
-        name += "_" + p.strip("-").replace(" ", "")
-    return report.short_name(name)
+    return report.short_name(name + report.options_suffix(petsc))
 
 
 def fusiform(args, model="combi", case="isometric", cell="hex", degree=1, n=1, dt=0.05,

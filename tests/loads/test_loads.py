@@ -19,7 +19,6 @@ import json
 import math
 import os
 import re
-import subprocess
 import sys
 
 import pytest
@@ -501,11 +500,8 @@ def test_taylor_hood_condition_number_refused_before_the_run(build, scratch):
     as an input error before anything is built, not after the stepping (where a throw
     would lose the finished run's summary)."""
     out = os.path.join(scratch, "condition")
-    command = [os.path.join(build, "muscle-run"), CANTILEVER, "--out", out,
-               "--condition-number"]
-    for s in QUIET + TAYLOR_HOOD:
-        command += ["--set", s]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    result = muscle_run(build, CANTILEVER, out, QUIET + TAYLOR_HOOD, timeout=300,
+                        options=["--condition-number"])
     assert result.returncode == 2 and "--condition-number" in result.stderr \
         and "element.taylor_hood: false" in result.stderr, result.stdout + result.stderr
     assert not os.path.exists(out), "refused before the output directory is made"

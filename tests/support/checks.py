@@ -28,10 +28,10 @@ def all_finite(rows):
     return all(math.isfinite(float(v)) for r in rows for v in r.values())
 
 
-def muscle_run(build, scene, out, sets=(), ranks=1, timeout=1200):
-    """build/muscle-run SCENE --out OUT --set S ... (under mpirun for ranks > 1)."""
+def muscle_run(build, scene, out, sets=(), ranks=1, timeout=1200, options=()):
+    """build/muscle-run SCENE --out OUT OPTIONS --set S ... (under mpirun for ranks > 1)."""
     import subprocess
-    command = [os.path.join(build, "muscle-run"), scene, "--out", out]
+    command = [os.path.join(build, "muscle-run"), scene, "--out", out, *options]
     for s in sets:
         command += ["--set", s]
     if ranks > 1:
