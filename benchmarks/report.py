@@ -131,6 +131,9 @@ STARS_LAG2_OPTIONS = ("-al_gamma 1", "-fieldsplit_u_pc_type mg",
 CHEBYSHEV_ON_Q = ("-fieldsplit_q_ksp_type chebyshev", "-fieldsplit_q_ksp_max_it 8",
                   "-fieldsplit_q_ksp_norm_type none", "-fieldsplit_q_pc_type pbjacobi",
                   "-fieldsplit_q_ksp_chebyshev_eigenvalues 0.12,3.4")
+# Taylor-Hood n = 4 (phase kappa-th4) with `gmres-stars`: full Newton steps, GMRES restarted
+# every 60 iterations and stopped after 400 (run_benchmarks.phase_kappa_th4 says why)
+TH4_OPTIONS = ("--line-search basic", "-ksp_gmres_restart 60", "-ksp_max_it 400")
 _STARS_LAG2 = options_suffix(STARS_LAG2_OPTIONS)
 _CHEBYSHEV_Q = options_suffix(CHEBYSHEV_ON_Q)
 
@@ -287,11 +290,14 @@ RUNS = {
     "ktl3_k1000": "kappa_combi_isometric_hex2th_n3_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
                   + _STARS_LAG2,
     # the same with Chebyshev on the q block (ktc, gmres-stars): n = 1 and 2 at
-    # kappa = 10 ... 10^4 (n = 4 by hand)
+    # kappa = 10 ... 10^4
     **{f"ktc{n if n > 1 else ''}_k{k}": short_name(
        f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
        + _STARS_LAG2 + _CHEBYSHEV_Q)
        for n in (1, 2) for k in (10, 100, 1000, 10000)},
+    # and n = 4 at kappa = 1000 with the preset (phase kappa-th4)
+    "ktc4_k1000": "kappa_combi_isometric_hex2th_n4_dt0.05_gmres-stars_np2_rtol1e-06_kappa1000"
+                  + options_suffix(TH4_OPTIONS),
     # the free contraction (the uniform-axial constraint) at kappa = 1000, phase
     # kappa-free: the plain split (kfp), the stars split, lag 2 (kfs), and the same with
     # Chebyshev on q (kfc); _free2: n = 2
