@@ -1528,84 +1528,6 @@ def shoulder_extrapolation_table(res):
 
 
 # ---------------------------------------------------------------------------
-# the template
-# ---------------------------------------------------------------------------
-PLACEHOLDER = re.compile(r"\{\{(.*?)\}\}")
-
-
-class TemplateError(Exception):
-    pass
-
-
-def split(text):
-    """EXPR:FORMAT -> (EXPR, FORMAT); the format is what follows the last colon."""
-    expr, colon, spec = text.rpartition(":")
-    return (expr.strip(), spec.strip()) if colon else (text.strip(), "")
-
-
-def render(template, results, name="BENCHMARKS.md.in"):
-    res = Results(results)
-    aliases = {alias: res.run(run) for alias, run in RUNS.items() if run in res.runs}
-    namespace = {"__builtins__": {}, **make_helpers(res),
-                 **{key: wrap(value) for key, value in results.items()}, **aliases}
-    used = set()
-    out = []
-    for number, line in enumerate(template.splitlines(keepends=True), 1):
-        def fill(match):
-            expr, spec = split(match.group(1))
-            try:
-                if expr in TABLES:
-                    used.add(expr)
-                    return TABLES[expr](res)
-                code = compile(expr, name, "eval")
-                used.update(code.co_names)
-                missing = [n for n in code.co_names if n in RUNS and n not in aliases]
-                if missing:
-                    raise KeyError(f"run {RUNS[missing[0]]} ({missing[0]}) not in results.json")
-                value = eval(code, namespace)
-                if isinstance(value, str) and not spec:
-                    return value
-                return fmt(value, spec or "g")
-            except Exception as e:
-                raise TemplateError(f"{name}:{number}: {{{{{match.group(1)}}}}}: "
-                                    f"{type(e).__name__}: {e}") from None
-        out.append(PLACEHOLDER.sub(fill, line))
-    unused = sorted(set(TABLES) - used) + sorted(set(RUNS) - used)
-    if unused:
-        raise TemplateError(f"{name}: tables or run aliases the template does not use: "
-                            + ", ".join(unused))
-    return NOTICE + "".join(out)
-
-
-def write(results_path, out_path, template_path=TEMPLATE):
-    with open(results_path) as f:
-        results = json.load(f)
-    with open(template_path) as f:
-        template = f.read()
-    page = render(template, results, os.path.basename(template_path))
-    with open(out_path, "w") as f:
-        f.write(page)
-    return page
-
-
-def main():
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--results", default=os.path.join(HERE, "results.json"))
-    parser.add_argument("--out", default=os.path.join(ROOT, "BENCHMARKS.md"))
-    args = parser.parse_args()
-    try:
-        write(args.results, args.out)
-    except TemplateError as e:
-        sys.exit(f"error: {e}")
-    print(f"wrote {args.out}")
-
-
-if __name__ == "__main__":
-    main()
-
-
-# ---------------------------------------------------------------------------
 # Taylor-Hood on the cantilever (results.json: taylor_hood_runs, phase taylor-hood)
 # ---------------------------------------------------------------------------
 TAYLOR_HOOD_ELEMENTS = {"Q2": "Q2", "Q2TH": "Taylor-Hood, MUMPS",
@@ -1737,3 +1659,81 @@ def taylor_hood_table(res):
                          fmt(r.get("peak_rss_MiB"), ".0f"), f"{r['loadavg_before'][0]:.1f}"])
     return md_table(["element", "cells", "unknowns", "tip z [mm]", "vs finest Taylor-Hood",
                      "wall [s]", "Newton its", "Krylov / Newton", "peak RSS [MiB]", "load"], rows)
+
+
+# ---------------------------------------------------------------------------
+# the template
+# ---------------------------------------------------------------------------
+PLACEHOLDER = re.compile(r"\{\{(.*?)\}\}")
+
+
+class TemplateError(Exception):
+    pass
+
+
+def split(text):
+    """EXPR:FORMAT -> (EXPR, FORMAT); the format is what follows the last colon."""
+    expr, colon, spec = text.rpartition(":")
+    return (expr.strip(), spec.strip()) if colon else (text.strip(), "")
+
+
+def render(template, results, name="BENCHMARKS.md.in"):
+    res = Results(results)
+    aliases = {alias: res.run(run) for alias, run in RUNS.items() if run in res.runs}
+    namespace = {"__builtins__": {}, **make_helpers(res),
+                 **{key: wrap(value) for key, value in results.items()}, **aliases}
+    used = set()
+    out = []
+    for number, line in enumerate(template.splitlines(keepends=True), 1):
+        def fill(match):
+            expr, spec = split(match.group(1))
+            try:
+                if expr in TABLES:
+                    used.add(expr)
+                    return TABLES[expr](res)
+                code = compile(expr, name, "eval")
+                used.update(code.co_names)
+                missing = [n for n in code.co_names if n in RUNS and n not in aliases]
+                if missing:
+                    raise KeyError(f"run {RUNS[missing[0]]} ({missing[0]}) not in results.json")
+                value = eval(code, namespace)
+                if isinstance(value, str) and not spec:
+                    return value
+                return fmt(value, spec or "g")
+            except Exception as e:
+                raise TemplateError(f"{name}:{number}: {{{{{match.group(1)}}}}}: "
+                                    f"{type(e).__name__}: {e}") from None
+        out.append(PLACEHOLDER.sub(fill, line))
+    unused = sorted(set(TABLES) - used) + sorted(set(RUNS) - used)
+    if unused:
+        raise TemplateError(f"{name}: tables or run aliases the template does not use: "
+                            + ", ".join(unused))
+    return NOTICE + "".join(out)
+
+
+def write(results_path, out_path, template_path=TEMPLATE):
+    with open(results_path) as f:
+        results = json.load(f)
+    with open(template_path) as f:
+        template = f.read()
+    page = render(template, results, os.path.basename(template_path))
+    with open(out_path, "w") as f:
+        f.write(page)
+    return page
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--results", default=os.path.join(HERE, "results.json"))
+    parser.add_argument("--out", default=os.path.join(ROOT, "BENCHMARKS.md"))
+    args = parser.parse_args()
+    try:
+        write(args.results, args.out)
+    except TemplateError as e:
+        sys.exit(f"error: {e}")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
