@@ -16,7 +16,8 @@ The page is the template benchmarks/BENCHMARKS.md.in with its placeholders fille
 Every measured number of the prose is a placeholder.  The few numbers that results.json
 does not hold are typed into the template and marked with a dagger there.  The report
 stops, naming the template line, at a placeholder it cannot evaluate, at a run alias
-whose run is not in results.json, and at a table or alias the template does not use.
+whose run is not in results.json, at a table the template does not use and at a run
+alias that neither the template nor a table reads: remove what the page no longer needs.
 
 Adding a study, e.g. a "shoulder" scaling study saved in results.json as
 "shoulder": [{"resolution": ..., "ranks": ..., "unknowns": ..., ...}, ...]:
@@ -112,10 +113,6 @@ def mesh_numbers(sets):
     return [s for s in sets if s.startswith("mesh.set.")]
 
 
-# p-multigrid with its Q1 level by MUMPS, as the run names spell the options
-_EXACT_Q1 = ("_fieldsplit_u_pc_typemg_fieldsplit_u_mg_coarse_pc_typelu"
-             "_fieldsplit_u_mg_coarse_pc_factor_mat_solver_typemumps")
-
 def options_suffix(petsc):
     """Options (PETSc's, or the program's such as --line-search) as a run's name spells
     them: "-a b" -> "_ab"."""
@@ -138,10 +135,23 @@ TH4_OPTIONS = ("--line-search basic", "-ksp_gmres_restart 60", "-ksp_max_it 400"
 _STARS_LAG2 = options_suffix(STARS_LAG2_OPTIONS)
 _CHEBYSHEV_Q = options_suffix(CHEBYSHEV_ON_Q)
 
+class Aliases(dict):
+    """Run aliases -> run names, remembering which were looked up (read): the report's
+    check for unused aliases counts the tables' look-ups as well as the template's."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.read = set()
+
+    def __getitem__(self, alias):
+        self.read.add(alias)
+        return super().__getitem__(alias)
+
+
 # Run aliases for the template: COMBI, 0.05 s steps, MUMPS on one rank unless the name
 # says otherwise; q1 plain trilinear hexahedra, fb F-bar, q2 triquadratic, p1/p2
 # tetrahedra; n2/n4 the refinement (n = 1 otherwise); k100 kappa = 100.
-RUNS = {
+RUNS = Aliases({
     # plain Q1: end-to-end, solvers, map
     "q1_iso": "combi_isometric_hex1_n1_dt0.05_lu_np1",
     "q1_iso_repeat": "combi_isometric_hex1_n1_dt0.05_lu_np1_repeat",
@@ -149,7 +159,6 @@ RUNS = {
     "q1_iso_np2": "combi_isometric_hex1_n1_dt0.05_lu_np2",
     "q1_iso_gamg": "combi_isometric_hex1_n1_dt0.05_gmres-gamg_np1",
     "q1_iso_hypre": "combi_isometric_hex1_n1_dt0.05_gmres-hypre_np1",
-    "q1_iso_hypre_k100": "combi_isometric_hex1_n1_dt0.05_gmres-hypre_np1_kappa100",
     "q1n2_iso": "combi_isometric_hex1_n2_dt0.05_lu_np1",
     "q1n2_iso_np2": "combi_isometric_hex1_n2_dt0.05_lu_np2",
     "q1n2_free": "combi_free_hex1_n2_dt0.05_lu_np1_snes_max_it10",
@@ -165,131 +174,38 @@ RUNS = {
     "p1_free": "combi_free_tet1_n1_dt0.05_lu_np1",
     "p2_iso": "combi_isometric_tet2_n1_dt0.05_lu_np1_snes_max_it10",
     "p2_free": "combi_free_tet2_n1_dt0.05_lu_np1_snes_max_it10",
-    # the kappa study (F-bar, n = 1, GMRES rtol 1e-6)
+    # the kappa study on F-bar (GMRES rtol 1e-6): MUMPS, the penalty split's full (kp) and
+    # lower (kpl) factor; kp2, kpl2: n = 2 on two ranks, kp4: n = 4
     "kp_lu_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_lu_np1_kappa1000",
-    "kp_lu_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_lu_np1_kappa10000",
-    "kp_gamg_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000",
-    "kp_sor_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-gamg_np1_rtol1e-06_kappa1000"
-                    "_mg_levels_pc_typesor_mg_levels_pc_sor_diagonal_shift1e-8",
-    "kp_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
-                   "_penalty_split_factorizationfull",
-    "kp_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
-                    "_penalty_split_factorizationfull",
-    "kp_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
-                     "_penalty_split_factorizationfull",
-    "kp2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-                     "_penalty_split_factorizationfull",
-    "kp2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
-                      "_penalty_split_factorizationfull",
-    "kp4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-                     "_penalty_split_factorizationfull",
-    "kp4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-                          "_penalty_split_factorizationfull",
-    "kpl_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
-                    "_penalty_split_factorizationlower",
-    "kpl_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
-                     "_penalty_split_factorizationlower",
-    "kpl_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
-                      "_penalty_split_factorizationlower",
-    "kpl2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-                      "_penalty_split_factorizationlower",
-    "kpl2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
-                       "_penalty_split_factorizationlower",
-    "kpu_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
-                      "_penalty_split_factorizationupper",
-    "kpu_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
-                      "_penalty_split_factorizationupper",
-    "kpu2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-                      "_penalty_split_factorizationupper",
-    "kpu2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
-                      "_penalty_split_factorizationupper",
-    # the lower factor with one SSOR sweep per level as GAMG's smoother
-    "kps_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
-              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
-    "kps_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
-              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
-    "kps2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
-    "kps2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
-              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
-    "kps4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
-              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
-    "kps4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
-              "_penalty_split_factorizationlower_soft_mg_levels_ksp_typerichardson_soft_mg_levels_pc_typesor_soft_mg_levels_pc_sor_diagonal_shift1e-8_soft_mg_levels_ksp_max_it1",
+    **{f"{key}{n if n > 1 else ''}_split_k{k}":
+       f"kappa_combi_isometric_hex1fbar_n{n}_dt0.05_gmres-schur_np{min(n, 2)}_rtol1e-06"
+       f"_kappa{k}_penalty_split_factorization{factor}"
+       for key, factor, sizes in (("kp", "full", ((1, (1000,)), (2, (1000,)), (4, (1000,)))),
+                                  ("kpl", "lower", ((1, (100, 1000, 10000)),
+                                                    (2, (1000, 10000)))))
+       for n, kappas in sizes for k in kappas},
     # the lower factor with A_s^-1 exact (MUMPS): the diagonal Schur approximation alone
-    "kpx_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
-    "kpx_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
-    "kpx_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
-    "kpx2_split_k1000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
-    "kpx2_split_k10000": "kappa_combi_isometric_hex1fbar_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps",
-    # the sparse Schur approximation (PETSc's "selfp"), with one V-cycle each and both exact
-    "kpq_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
-              "_penalty_split_factorizationlower_penalty_split_schursparse",
-    "kpq_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
-              "_penalty_split_factorizationlower_penalty_split_schursparse",
-    "kpq_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
-              "_penalty_split_factorizationlower_penalty_split_schursparse",
-    "kpxq_split_k100": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps"
-              "_penalty_split_schursparse_schur_pc_typelu_schur_pc_factor_mat_solver_typemumps",
-    "kpxq_split_k1000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps"
-              "_penalty_split_schursparse_schur_pc_typelu_schur_pc_factor_mat_solver_typemumps",
-    "kpxq_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000"
-              "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps"
-              "_penalty_split_schursparse_schur_pc_typelu_schur_pc_factor_mat_solver_typemumps",
+    **{f"kpx{n if n > 1 else ''}_split_k{k}":
+       f"kappa_combi_isometric_hex1fbar_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
+       "_penalty_split_factorizationlower_soft_pc_typelu_soft_pc_factor_mat_solver_typemumps"
+       for n, kappas in ((1, (100, 1000, 10000)), (2, (1000, 10000))) for k in kappas},
+    # the lower factor with the sparse Schur approximation (PETSc's "selfp")
+    "kpq_split_k10000": "kappa_combi_isometric_hex1fbar_n1_dt0.05_gmres-schur_np1_rtol1e-06"
+                        "_kappa10000_penalty_split_factorizationlower_penalty_split_schursparse",
     # Taylor-Hood with its Schur field split in the kappa study (n = 1, one rank)
-    "kth_k10": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10",
-    "kth_k100": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa100",
-    "kth_k1000": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000",
-    "kth_k10000": "kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa10000",
-    # and at n = 2 (two ranks)
-    "kth2_k100": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa100",
-    "kth2_k1000": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000",
-    "kth2_k10000": "kappa_combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol1e-06_kappa10000",
-    # and with BoomerAMG on the displacement block
-    **{f"kthh{n if n > 1 else ''}_k{k}":
-       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
-       "_fieldsplit_u_pc_typehypre"
-       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (100, 1000, 10000))) for k in kappas},
-    # and with p-multigrid on the displacement block (n = 1)
-    **{f"kthm_k{k}": f"kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa{k}"
-       "_fieldsplit_u_pc_typemg" for k in (10, 100, 1000, 10000)},
-    # the augmented-Lagrangian blocks under GAMG (kta), and p-multigrid with its Q1 level
-    # solved by MUMPS, plain (ktme) and augmented (ktae); n = 1, and n = 2 at kappa = 1000
-    # under GAMG
-    **{f"{key}{n if n > 1 else ''}_k{k}":
-       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}{suffix}"
-       for key, suffix in (("kta", "_al_gamma1"), ("ktme", _EXACT_Q1),
-                           ("ktae", "_al_gamma1" + _EXACT_Q1))
-       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, (1000,) if key == "kta" else ()))
-       for k in kappas},
-    # at kappa = 1000, n = 1 and 2: the augmented block under BoomerAMG (ktah), under
-    # p-multigrid with GAMG on Q1 (ktam), and gamma = 0.3 and 3 mu under GAMG (ktg03, ktg3); _n2: n = 2
-    **{f"{key}{'_n2' if n > 1 else ''}_k1000":
+    **{f"kth_k{k}": f"kappa_combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa{k}"
+       for k in (10, 100, 1000, 10000)},
+    # at kappa = 1000: the plain split, BoomerAMG (kthh) and p-multigrid (kthm) on the
+    # displacement block, the augmented blocks under GAMG (kta); 2: n = 2 on two ranks
+    **{f"{key}{n if n > 1 else ''}_k1000":
        f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa1000{suffix}"
-       for key, suffix in (("ktah", "_al_gamma1_fieldsplit_u_pc_typehypre"),
-                           ("ktam", "_al_gamma1_fieldsplit_u_pc_typemg"),
-                           ("ktg03", "_al_gamma0.3"), ("ktg3", "_al_gamma3"))
-       for n in (1, 2)},
-    # the augmented block under p-multigrid with vertex stars on Q2 and BoomerAMG on Q1
-    # (kts), and with the Q1 matrix made at every other Newton iteration (ktl); n = 1,
-    # and n = 2 at kappa = 1000 (kts) and 10 ... 10^4 (ktl)
-    **{f"{key}{n if n > 1 else ''}_k{k}":
-       f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa{k}"
-       "_al_gamma1_fieldsplit_u_pc_typemg_fieldsplit_u_mg_levels_pc_typestars"
-       f"_fieldsplit_u_mg_coarse_pc_typehypre{suffix}"
-       for key, suffix, n2 in (("kts", "", (1000,)),
-                               ("ktl", "_fieldsplit_u_mg_coarse_lag2", (10, 100, 1000, 10000)))
-       for n, kappas in ((1, (10, 100, 1000, 10000)), (2, n2)) for k in kappas},
-    # and n = 3 (1.4 M unknowns, lag 2, kappa = 1000)
-    "ktl3_k1000": "kappa_combi_isometric_hex2th_n3_dt0.05_gmres-schur_np2_rtol1e-06_kappa1000"
-                  + _STARS_LAG2,
+       for key, suffix, sizes in (("kth", "", (2,)), ("kthh", "_fieldsplit_u_pc_typehypre", (1, 2)),
+                                  ("kthm", "_fieldsplit_u_pc_typemg", (1,)),
+                                  ("kta", "_al_gamma1", (2,)))
+       for n in sizes},
+    # the stars split, lag 2, with MUMPS on q: n = 2 and 3 (two ranks), kappa = 1000
+    **{f"ktl{n}_k1000": f"kappa_combi_isometric_hex2th_n{n}_dt0.05_gmres-schur_np2_rtol1e-06"
+       "_kappa1000" + _STARS_LAG2 for n in (2, 3)},
     # the same with Chebyshev on the q block (ktc, gmres-stars): n = 1 and 2 at
     # kappa = 10 ... 10^4
     **{f"ktc{n if n > 1 else ''}_k{k}": short_name(
@@ -300,13 +216,12 @@ RUNS = {
     "ktc4_k1000": "kappa_combi_isometric_hex2th_n4_dt0.05_gmres-stars_np2_rtol1e-06_kappa1000"
                   + options_suffix(TH4_OPTIONS),
     # the free contraction (the uniform-axial constraint) at kappa = 1000, phase
-    # kappa-free: the plain split (kfp), the stars split, lag 2 (kfs), and the same with
-    # Chebyshev on q (kfc); _free2: n = 2
-    **{f"{key}_free{n if n > 1 else ''}": short_name(
-       f"kappa_combi_free_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa1000{suffix}")
-       for key, suffix in (("kfp", ""), ("kfs", _STARS_LAG2),
-                           ("kfc", _STARS_LAG2 + _CHEBYSHEV_Q))
-       for n in (1, 2)},
+    # kappa-free: the plain split at n = 1 (kfp) and the stars split with Chebyshev on q
+    # (kfc); _free2: n = 2
+    "kfp_free": "kappa_combi_free_hex2th_n1_dt0.05_gmres-schur_np1_rtol1e-06_kappa1000",
+    **{f"kfc_free{n if n > 1 else ''}": short_name(
+       f"kappa_combi_free_hex2th_n{n}_dt0.05_gmres-schur_np{n}_rtol1e-06_kappa1000"
+       + _STARS_LAG2 + _CHEBYSHEV_Q) for n in (1, 2)},
     "kpl4_split_k1000": "kappa_combi_isometric_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
                       "_penalty_split_factorizationlower",
     "kpl4_split_free_k1000": "kappa_combi_free_hex1fbar_n4_dt0.05_gmres-schur_np2_rtol0.0001_kappa1000"
@@ -335,7 +250,6 @@ RUNS = {
     "th_iso_schur": "combi_isometric_hex2th_n1_dt0.05_gmres-schur_np1",
     # Taylor-Hood n = 2 and n = 1 with the Schur split on two ranks, --linear-rtol 1e-4
     "th2_iso_schur": "combi_isometric_hex2th_n2_dt0.05_gmres-schur_np2_rtol0.0001",
-    "th_iso_schur_np2": "combi_isometric_hex2th_n1_dt0.05_gmres-schur_np2_rtol0.0001",
     "th_free_schur": "combi_free_hex2th_n1_dt0.05_gmres-schur_np1",
     # F-bar Q1
     "fb_iso": "combi_isometric_hex1fbar_n1_dt0.05_lu_np1",
@@ -368,7 +282,7 @@ RUNS = {
     "ble_al_free": "ble_free_hex1_n1_dt0.05_lu_np1_anti-locking",
     "ble_q2_iso": "ble_isometric_hex2_n1_dt0.05_lu_np1_snes_max_it10",
     "ble_q2_free": "ble_free_hex2_n1_dt0.05_lu_np1_snes_max_it10",
-}
+})
 
 
 def quadrature_runs(element, case):
@@ -430,10 +344,6 @@ def verdict(ok):
 
 def make_helpers(res):
     raw = res.raw
-
-    def asm(element, model, key="assembly"):
-        """A model's bench-assembly record (key: assembly or assembly_after_fno_math_errno)."""
-        return Obj(next(m for m in raw[key][element]["models"] if m["model"] == model))
 
     def instr(element, model):
         return Obj(raw["instructions"][element]["counts"][model])
@@ -500,7 +410,7 @@ def make_helpers(res):
     return {"rel": rel, "shortening": shortening, "exponent": exponent,
             "without_failed_attempt": krylov_per_newton_without_failed_attempt,
             "th4_failed": TH4_FAILED_ATTEMPT,
-            "spread": spread, "verdict": verdict, "asm": asm, "instr": instr,
+            "spread": spread, "verdict": verdict, "instr": instr,
             "kernel_per_point": kernel_per_point, "loads": loads, "cpus": cpus, "quad": quad, "knob": knob,
             "line_search": line_search, "line_search_total": line_search_total,
             "line_search_outliers": line_search_outliers,
@@ -508,21 +418,18 @@ def make_helpers(res):
             "shoulder_fit": lambda solver, exponent=None: shoulder_fit(raw, solver, exponent),
             "shoulder": lambda size, solver="lu", ranks=1: shoulder_run(raw, size, solver,
                                                                        ranks),
-            "shoulder_step_time": shoulder_step_time, "shoulder_core_share": shoulder_core_share,
+            "shoulder_step_time": shoulder_step_time,
             "reference": lambda case, meshes=(2, 4, 6), family=REFERENCE_FAMILY:
                 reference_extrapolation(res, case, meshes, family),
             "reference_spread": lambda case: reference_spread(res, case),
             "reference_triplets": lambda case: reference_triplets(res, case),
             "cell_size": cell_size, **reference_values(res),
-            "richardson": lambda *runs, key: richardson(*(r[key] for r in runs),
-                                                        h=[cell_size(r) for r in runs]),
             "stiff_soft": lambda config, contrast=None, study="stiff_soft": stiff_soft_run(
                 raw, config, contrast, study),
             "cantilever": lambda element, refinement: cantilever_run(raw, element, refinement),
             "cantilever_reference": lambda: cantilever_reference(raw),
             "cantilever_sweep": lambda refinement, nu, element="Q2TH-schur":
                 sweep_run(raw, refinement, nu, element),
-            "cantilever_split": lambda element, refinement: split_run(raw, element, refinement),
             "min": min, "max": max, "abs": abs, "round": round, "log2": math.log2}
 
 
@@ -568,11 +475,6 @@ def load_str(r):
     return f"{r['loadavg_before'][0]:.2f}/{r['loadavg_after'][0]:.2f}"
 
 
-def binary_date(r):
-    """When the run's binary was linked (results.json: binary_mtime), minutes."""
-    return r["binary_mtime"][:16].replace("T", " ") if r.get("binary_mtime") else "-"
-
-
 @table
 def machine_table(res):
     m = res.raw["machine"]
@@ -585,64 +487,51 @@ def machine_table(res):
     return md_table(["", ""], rows)
 
 
-def assembly_rows(data):
-    return [[m["model"], fmt(m["jacobian_median"] * 1e3, ".1f"),
-             fmt(m["residual_median"] * 1e3, ".1f"), fmt(m["kernel_median"] * 1e3, ".1f"),
-             fmt(m["jacobian_ratio"], ".2f"), fmt(m["residual_ratio"], ".2f"),
-             fmt(m["newton_ratio"], ".2f"), fmt(m.get("target"), ".1f"),
-             {True: "yes", False: "NO", None: "-"}[m.get("target_met")]]
-            for m in data["models"]]
-
-
-ASSEMBLY_HEADER = ["model", "Jacobian [ms]", "residual [ms]", "kernel [ms]", "J / NH", "r / NH",
-                   "(J + r + kernel) / NH", "target", "met"]
-
-
-def assembly_caption(name, data):
-    return (f"**{name}**, fusiform n = {data['refinement']}: {data['cells']} cells, "
-            f"{data['unknowns']} unknowns, quadrature degree {data['quadrature_degree']}, "
-            f"{data['repetitions']} repetitions (median), load average "
-            f"{data['loadavg_before'][0]:.2f} -> {data['loadavg_after'][0]:.2f}")
-
-
-@table
-def assembly_wall_table(res):
-    return "\n\n".join(assembly_caption(element, data) + "\n\n"
-                       + md_table(ASSEMBLY_HEADER, assembly_rows(data))
-                       for element, data in res.raw["assembly"].items())
-
-
-@table
-def assembly_after_flag_table(res):
-    return "\n\n".join(assembly_caption(element, data) + "\n\n"
-                       + md_table(ASSEMBLY_HEADER, assembly_rows(data))
-                       for element, data in res.raw["assembly_after_fno_math_errno"].items()
-                       if isinstance(data, dict) and "models" in data)
-
-
 TARGETS = {"ble": 1.5, "combi": 1.5, "wkm": 2.0, "giant": 2.0}
 # the F-bar element (Q1F) of every model against plain-Q1 Neo-Hooke (issue 18)
 FBAR_TARGET = 2.5
 
 
+def target_of(model, element):
+    """A model's target for (J + r + kernel) / NH on an element (None for Neo-Hooke)."""
+    return TARGETS.get(model) and (FBAR_TARGET if element == "Q1F" else TARGETS[model])
+
+
+def ratio_table(ratios, header):
+    """(J + r + kernel) / NH per Newton iteration, ratios {element: {model: ratio}}: a row
+    per model, a column per element (its header from header(element)), "missed" where a
+    ratio is above its target."""
+    models = sorted({m for by_model in ratios.values() for m in by_model} - {"neohooke"})
+    rows = []
+    for m in models:
+        cells = []
+        for element, by_model in ratios.items():
+            x, target = by_model.get(m), target_of(m, element)
+            cells.append("-" if x is None else fmt(x, ".2f") if x <= target
+                         else f"**{fmt(x, '.2f')} missed**")
+        targets = sorted({target_of(m, e) for e in ratios})
+        rows.append([m.upper()] + cells + [" / ".join(fmt(t, "g") + "x" for t in targets)])
+    return md_table(["model"] + [header(e) for e in ratios] + ["target"], rows)
+
+
 @table
 def instruction_table(res):
-    out = []
-    for element, data in res.raw["instructions"].items():
-        rows = []
-        for m, c in data["counts"].items():
-            target = TARGETS.get(m) and (FBAR_TARGET if element == "Q1F" else TARGETS[m])
-            rows.append([m, fmt(c["jacobian"] / 1e6, ".1f"), fmt(c["residual"] / 1e6, ".1f"),
-                         fmt(c["kernel"] / 1e6, ".1f"), fmt(c["jacobian_ratio"], ".2f"),
-                         fmt(c["residual_ratio"], ".2f"), fmt(c["newton_ratio"], ".2f"),
-                         fmt(target, ".1f") if target else "-",
-                         ("yes" if c["newton_ratio"] <= target else "NO") if target else "-"])
-        out.append(f"**{element}**, fusiform n = {data['refinement']} (instructions, "
-                   "callgrind; one call each)\n\n"
-                   + md_table(["model", "Jacobian [M instr]", "residual [M instr]",
-                               "kernel [M instr]", "J / NH", "r / NH",
-                               "(J + r + kernel) / NH", "target", "met"], rows))
-    return "\n\n".join(out)
+    """Instructions (callgrind) per Newton iteration against Neo-Hooke, every element."""
+    data = res.raw["instructions"]
+    return ratio_table({e: {m: c["newton_ratio"] for m, c in d["counts"].items()}
+                        for e, d in data.items()},
+                       lambda e: f"{e}, n = {data[e]['refinement']}")
+
+
+@table
+def assembly_after_flag_table(res):
+    """Wall-time medians per Newton iteration against Neo-Hooke, built with -fno-math-errno."""
+    data = {e: d for e, d in res.raw["assembly_after_fno_math_errno"].items()
+            if isinstance(d, dict) and "models" in d}
+    return ratio_table({e: {m["model"]: m["newton_ratio"] for m in d["models"]}
+                        for e, d in data.items()},
+                       lambda e: f"{e} ({data[e]['repetitions']} repetitions, load "
+                                 f"{data[e]['loadavg_before'][0]:.1f})")
 
 
 def run_label(r):
@@ -650,25 +539,20 @@ def run_label(r):
             + (f" rtol {r['linear_rtol']:g}" if r.get("linear_rtol") else ""))
 
 
-def run_table(rs, value=False):
-    """One row per fusiform run: settings, cost, iterations, load, binary date."""
+def run_table(rs):
+    """One row per fusiform run: settings, cost, iterations, load."""
     rows = []
     for r in rs:
-        extra = [fmt(r.get("F33" if r["case"] == "isometric" else "epsilon"), ".7g")] \
-            if value else []
-        rows.append([run_label(r), r["case"], r["element"], *extra,
-                     r["n"], r.get("unknowns", "-"),
+        rows.append([run_label(r), r["case"], r["element"], r["n"], r.get("unknowns", "-"),
                      fmt(r["dt"], "g"), r["solver"], r["ranks"],
                      fmt(r.get("wall_time") or r.get("elapsed"), ".1f"),
                      fmt(r.get("cpu_time"), ".1f"), r.get("steps", "-"),
                      fmt(r.get("newton_per_step"), ".1f"), fmt(r.get("krylov_per_newton"), ".1f"),
                      r.get("cutbacks", "-"), fmt(r.get("peak_rss_MiB"), ".0f"), load_str(r),
-                     "yes" if r.get("completed") else "NO", binary_date(r)])
-    return md_table(["model", "case", "element"] + (["F33 / epsilon"] if value else [])
-                    + ["n", "unknowns", "dt [s]", "solver", "ranks",
-                       "wall [s]", "CPU [s]", "steps", "Newton/step", "Krylov/Newton",
-                       "cutbacks", "peak RSS [MiB]", "load before/after", "completed",
-                       "binary linked"], rows)
+                     "yes" if r.get("completed") else "NO"])
+    return md_table(["model", "case", "element", "n", "unknowns", "dt [s]", "solver", "ranks",
+                     "wall [s]", "CPU [s]", "steps", "Newton/step", "Krylov/Newton",
+                     "cutbacks", "peak RSS [MiB]", "load before/after", "completed"], rows)
 
 
 def by_settings(r):
@@ -677,18 +561,9 @@ def by_settings(r):
 
 @table
 def end_to_end_table(res):
-    return run_table(sorted(res.raw["end_to_end"], key=by_settings))
-
-
-@table
-def solver_table(res):
-    return run_table(sorted(res.raw["solvers"], key=by_settings))
-
-
-@table
-def fbar_run_table(res):
-    return run_table(sorted(res.raw["fbar_runs"], key=lambda r: (
-        r["case"], r["n"], r["sets"], r["solver"], r["ranks"])), value=True)
+    """The plain-Q1 runs of phases e2e and solvers, each once."""
+    runs = {r["name"]: r for key in ("end_to_end", "solvers") for r in res.raw[key]}
+    return run_table(sorted(runs.values(), key=by_settings))
 
 
 @table
@@ -839,6 +714,16 @@ KAPPA_CANDIDATES = {
 }
 
 
+# the rows of the page's kappa table: the candidates that carry a finding (results.json
+# holds every candidate's runs)
+KAPPA_TABLE_ROWS = ("MUMPS", "GAMG", "BoomerAMG, systems", "penalty split",
+                    "penalty split, lower", "penalty split, lower, exact A_s",
+                    "penalty split, lower, sparse Schur", "Taylor-Hood, Schur split",
+                    "Taylor-Hood, Schur split, BoomerAMG", "Taylor-Hood, Schur split, p-multigrid",
+                    "Taylor-Hood, Schur split, augmented Lagrangian", STARS_CANDIDATE,
+                    STARS_CHEBYSHEV_CANDIDATE)
+
+
 def kappa_of(r):
     return float(r["sets"][0].split("=")[1])
 
@@ -859,11 +744,11 @@ def kappa_groups(res):
 @table
 def kappa_table(res):
     """Newton iterations / Krylov iterations per Newton iteration, against kappa and n
-    (isometric)."""
+    (isometric; the candidates of KAPPA_TABLE_ROWS)."""
     groups, kappas = kappa_groups(res)
     rows = []
     for (label, case, n, ranks), by_kappa in groups:
-        if case != "isometric":
+        if case != "isometric" or label not in KAPPA_TABLE_ROWS:
             continue
         cells = []
         for k in kappas:
@@ -879,44 +764,12 @@ def kappa_table(res):
 
 
 @table
-def kappa_runs_table(res):
-    """Every run of the kappa study: F33 against MUMPS's, cost."""
-    groups, kappas = kappa_groups(res)
-    mumps = {(case, n, k): r for (label, case, n, ranks), by_kappa in groups
-             if label == "MUMPS" for k, r in by_kappa.items() if r.get("completed")}
-    rows = []
-    for (label, case, n, ranks), by_kappa in groups:
-        for k in kappas:
-            r = by_kappa.get(k)
-            if r is None:
-                continue
-            done = r.get("completed")
-            ref = mumps.get((case, n, k))
-            value = "F33" if case == "isometric" else "epsilon"
-            diff = (abs(r[value] / ref[value] - 1)
-                    if done and ref and label != "MUMPS" and r["element"] == ref["element"]
-                    else None)  # Taylor-Hood: another element, another answer
-            rows.append([label, case, n, ranks, f"{k:g}",
-                         (fmt(r["F33"], ",.2f") if case == "isometric"
-                          else fmt(r["epsilon"], ".5f")) if done else "-",
-                         fmt(diff, ".0e") if diff is not None else "-",
-                         f"{r['elapsed']:.1f}" + ("" if done else f" (exit {r['returncode']})"),
-                         fmt(r.get("cpu_time"), ".1f"),
-                         r.get("newton_iterations") if done else "-",
-                         r.get("cutbacks") if done else "-",
-                         fmt(r.get("peak_rss_MiB"), ",.0f"), load_str(r)])
-    return md_table(["preconditioner", "case", "n", "ranks", "kappa", "F33 [mN] / epsilon",
-                     "relative to MUMPS",
-                     "wall [s]", "CPU [s]", "Newton its", "cutbacks", "peak RSS / process [MiB]",
-                     "load before/after"], rows)
-
-
-@table
 def fbar_solver_table(res):
     """COMBI on F-bar: every solver and rank count (no PETSc options, 0.05 s steps)."""
     runs = [r for r in res.raw["fbar_runs"]
             if r["model"] == "combi" and r["element"] == "Q1F" and not r.get("petsc")
-            and r["sets"] in ([], ["kappa=100"])]  # not the penalty sweep
+            and r["sets"] in ([], ["kappa=100"])  # not the penalty sweep
+            and (r["case"] == "isometric" or r["solver"] != "lu")]
     order = list(SOLVER_NAMES)
     rows = []
     for r in sorted(runs, key=lambda r: (r["sets"] != [], r["case"] != "isometric", r["n"],
@@ -997,8 +850,8 @@ def cell_size(run):
 
 @table
 def richardson_table(res):
-    """F-bar at kappa = 100 and 1000: Richardson through n = 1, 2, 4 and, at the preset
-    kappa, through the similar meshes n = 2, 4, 6 (h from the cell count)."""
+    """F-bar at kappa = 100 and 1000: Richardson through n = 1, 2, 4 (h from the cell
+    count; n = 2, 4, 6: reference_family_table)."""
     rows = []
     f33, one_minus_epsilon = reference_quantity("isometric"), reference_quantity("free")
     for label, meshes, names, value in (
@@ -1009,29 +862,15 @@ def richardson_table(res):
             ("F33 [mN], kappa = 1000", "1, 2, 4", ("fb_iso", "fb2_iso", "kpl4_split_k1000"),
              f33),
             ("shortening 1 - epsilon, kappa = 1000", "1, 2, 4",
-             ("fb_free", "fb2_free", "kpl4_split_free_k1000"), one_minus_epsilon),
-            ("F33 [mN], kappa = 1000", "2, 4, 6",
-             ("fb2_iso", "kpl4_split_k1000", "kpl6_split_k1000"), f33),
-            ("shortening 1 - epsilon, kappa = 1000", "2, 4, 6",
-             ("fb2_free", "kpl4_split_free_k1000", "kpl6_split_free_k1000"),
-             one_minus_epsilon),
-            ("**F33 [mN], kappa = 1000**", "**2, 4, 6 graded (z)**",
-             reference_aliases("isometric", family="graded"), f33),
-            ("**shortening 1 - epsilon, kappa = 1000**", "**2, 4, 6 graded (radially)**",
-             reference_aliases("free", family="graded"), one_minus_epsilon)):
+             ("fb_free", "fb2_free", "kpl4_split_free_k1000"), one_minus_epsilon)):
         runs = [res.run(RUNS[n]) for n in names]
         v = [value(r) for r in runs]
         x = richardson(*v, h=[cell_size(r) for r in runs])
-        # n = 1 is not of the mesh family: an order, but no value or error bar from it
-        off = meshes.startswith("1")
         rows.append([label, meshes] + [fmt(y, ",.6g") for y in v]
                     + [fmt(v[0] - v[1], ".3g"), fmt(v[1] - v[2], ".3g"),
-                       fmt(x.get("p"), ".2f"),
-                       "n = 1 off the family" if off else fmt(x.get("value"), ",.6g"),
-                       "-" if off else fmt(x["gci"], ".2%") if "gci" in x else x["verdict"]])
+                       fmt(x.get("p"), ".2f") if "p" in x else x["verdict"]])
     return md_table(["quantity", "meshes n", "coarse", "medium", "fine", "change 1",
-                     "change 2", "observed order p", "extrapolated",
-                     "GCI of the finest mesh"], rows)
+                     "change 2", "observed order p"], rows)
 
 
 # F-bar at the preset kappa by refinement n: the isometric and the free run's aliases,
@@ -1189,23 +1028,18 @@ def accuracy_levels(analysis):
 
 
 def map_tables(analysis):
-    """The map's points against its reference, and the cheapest setting per level."""
-    rows = [[p["case"], p["label"], p.get("unknowns"), fmt(p["value"], ".6g"),
-             fmt(p["error"] * 100, ".3g"), fmt(p["wall_time"], ".1f"),
-             fmt(p.get("cpu_time"), ".1f"), p.get("newton_iterations"),
-             p.get("cutbacks"), fmt(p["loadavg"], ".2f"), p.get("cpu") or "not recorded"]
-            for p in sorted(analysis["points"], key=lambda p: (p["case"], p["wall_time"]))]
+    """The map's reference and, per case, the cheapest setting of each accuracy level (its
+    points are in its figure and in results.json)."""
     refs = "; ".join(f"{c}: {v['name']} ({v['quantity']} = {v['value']:.6g}"
                      + (f", order {v['order']:.2f}, GCI of n = 6 {fmt(v['gci_finest'], '.3%')})"
                         if v.get("extrapolated") else ")")
                      for c, v in analysis["reference"].items())
-    return ("Reference: " + refs + "\n\n"
-            + md_table(["case", "setting", "unknowns", "value", "error [%]", "wall [s]",
-                        "CPU [s]", "Newton its", "cutbacks", "load (1 min, at start)",
-                        "CPU"], rows)
-            + "\n\nCheapest setting per accuracy level:\n\n"
-            + md_table(["case", "accuracy", "cheapest setting", "wall [s]", "error [%]"],
-                       accuracy_levels(analysis)))
+    cells = collections.defaultdict(list)
+    for case, level, setting, wall, error in accuracy_levels(analysis):
+        cells[case].append(setting if wall == "-" else f"{setting}: {wall} s, {error} %")
+    return ("Reference: " + refs + ". The cheapest setting per accuracy level (wall, error):\n\n"
+            + md_table(["case"] + [f"{level * 100:g} %" for level in ACCURACY_LEVELS],
+                       [[case] + row for case, row in cells.items()]))
 
 
 @table
@@ -1266,20 +1100,22 @@ def quadrature_table(res):
 
 @table
 def root_tolerance_table(res):
-    """The activation root finder's tolerance: F33 against TOL = 1e-15."""
+    """The activation root finder's tolerance: F33 against TOL = 1e-15, GIANT and WKM."""
+    runs = {}
+    for r in res.raw["knob_runs"]:
+        if r["petsc"] and r["petsc"][0].startswith("--root-tolerance"):
+            runs[(r["model"], r["petsc"][0].split()[1])] = r
+    models = ("giant", "wkm")
     rows = []
-    for model in ("giant", "wkm"):
-        runs = {r["petsc"][0].split()[1]: r for r in res.raw["knob_runs"]
-                if r["model"] == model and r["petsc"]
-                and r["petsc"][0].startswith("--root-tolerance")}
-        ref = runs["1e-15"]
-        for tol in sorted(runs, key=float):
-            r = runs[tol]
-            rows.append([model.upper(), fmt(float(tol), "g"), f"{r['F33']:,.6f}",
-                         "-" if tol == "1e-15" else fmt(abs(rel(r["F33"], ref["F33"])), ".1e"),
-                         r["newton_iterations"], f"{r['wall_time']:.1f}"])
-    return md_table(["model", "TOL", "F33 [mN]", "change vs 1e-15", "Newton its", "wall [s]"],
-                    rows)
+    for tol in sorted({t for _, t in runs}, key=float):
+        row = [fmt(float(tol), "g")]
+        for model in models:
+            r, ref = runs.get((model, tol)), runs[(model, "1e-15")]
+            row += (["-" if tol == "1e-15" else fmt(abs(rel(r["F33"], ref["F33"])), ".1e"),
+                     r["newton_iterations"], f"{r['wall_time']:.1f}"] if r else ["not run"] * 3)
+        rows.append(row)
+    return md_table(["TOL"] + [f"{m.upper()}: {x}" for m in models
+                               for x in ("F33 change vs 1e-15", "Newton its", "wall [s]")], rows)
 
 
 # cp, bt, basic, l2: PETSc's SNES line searches; tr: Newton with a trust region
@@ -1683,6 +1519,7 @@ def render(template, results, name="BENCHMARKS.md.in"):
     namespace = {"__builtins__": {}, **make_helpers(res),
                  **{key: wrap(value) for key, value in results.items()}, **aliases}
     used = set()
+    RUNS.read.clear()
     out = []
     for number, line in enumerate(template.splitlines(keepends=True), 1):
         def fill(match):
@@ -1704,6 +1541,7 @@ def render(template, results, name="BENCHMARKS.md.in"):
                 raise TemplateError(f"{name}:{number}: {{{{{match.group(1)}}}}}: "
                                     f"{type(e).__name__}: {e}") from None
         out.append(PLACEHOLDER.sub(fill, line))
+    used |= RUNS.read
     unused = sorted(set(TABLES) - used) + sorted(set(RUNS) - used)
     if unused:
         raise TemplateError(f"{name}: tables or run aliases the template does not use: "
