@@ -22,8 +22,8 @@
 #include <common/application.h>
 #include <common/command_line.h>
 #include <common/errors.h>
-#include <fem/fibres.h>
-#include <fem/muscle_problem.h>
+#include <fem/elements/fibres.h>
+#include <fem/elements/muscle_problem.h>
 #include <form_registry.h>
 #include <io/gmsh_mesh.h>
 

@@ -677,9 +677,9 @@ KAPPA_CANDIDATES = {
     # configure_mixed_split) in place of GAMG
     "Taylor-Hood, Schur split, BoomerAMG": ("gmres-schur", ("-fieldsplit_u_pc_type hypre",)),
     # p-multigrid on the displacement block: Q2 -> Q1 by interpolation, GAMG on P^T A P
-    # (cpp/fem/p_multigrid.cpp), Jacobi-Chebyshev on Q2
+    # (cpp/fem/linear/p_multigrid.cpp), Jacobi-Chebyshev on Q2
     "Taylor-Hood, Schur split, p-multigrid": ("gmres-schur", ("-fieldsplit_u_pc_type mg",)),
-    # the augmented-Lagrangian blocks (gamma = mu at rest, cpp/fem/augmented_lagrangian.cpp)
+    # the augmented-Lagrangian blocks (gamma = mu at rest, cpp/fem/linear/augmented_lagrangian.cpp)
     # under GAMG; and two diagnoses, p-multigrid with its Q1 level solved by MUMPS, plain
     # and augmented: what is left is the Schur approximation and the Q2 smoothing
     "Taylor-Hood, Schur split, augmented Lagrangian": ("gmres-schur", ("-al_gamma 1",)),

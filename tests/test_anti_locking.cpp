@@ -2,7 +2,7 @@
 // full rule, the stiff volumetric part on one point).  Reference: the same two
 // ufcx forms assembled separately by DOLFINx and added -- independent of the
 // combined kernel's coefficient and constant gathering.
-#include <fem/muscle_problem.h>
+#include <fem/elements/muscle_problem.h>
 #include <forms/form_registry.h>
 #include <material/parameters.h>
 

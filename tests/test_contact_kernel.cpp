@@ -8,7 +8,7 @@
 // closed form.
 #include "support/finite_differences.h"
 
-#include <fem/contact_kernel.h>
+#include <fem/contact/contact_kernel.h>
 
 #include <cmath>
 #include <gtest/gtest.h>

@@ -8,7 +8,7 @@
 #include "support/finite_differences.h"
 
 #include <loadcases/load_case.h>
-#include <fem/muscle_problem.h>
+#include <fem/elements/muscle_problem.h>
 #include <material/parameters.h>
 
 #include <cmath>

@@ -5,11 +5,13 @@
 // the recovery of dtheta, dp or the extended Jacobian is off -- and it must
 // need fewer iterations under the preset penalty, the reason it exists.
 #include <common/errors.h>
-#include <fem/boundary.h>
-#include <fem/fbar_unknowns.h>
-#include <fem/muscle_problem.h>
-#include <fem/nonlinear_solver.h>
-#include <fem/uniform_constraint.h>
+#include <fem/constraints/boundary.h>
+#include <fem/elements/fbar_unknowns.h>
+#include <fem/elements/muscle_problem.h>
+#include <fem/linear/penalty_split.h>
+#include <fem/newton/fbar_formulation.h>
+#include <fem/newton/nonlinear_solver.h>
+#include <fem/constraints/uniform_constraint.h>
 #include <material/parameters.h>
 
 #include <algorithm>
@@ -387,7 +389,7 @@ TEST(FbarNewtonMultigrid, FreeBlockKeepsTheRigidBodyModes)
 // must converge there too -- 181 (lifted) and 113 (free) per Newton iteration with the full
 // factorisation, 30 at kappa = 100 -- and reach the direct solver's state, whichever block
 // factorisation (-penalty_split_factorization) preconditions it.
-class PenaltySplit : public ::testing::TestWithParam<std::tuple<bool, const char*>>
+class PenaltySplitSolve : public ::testing::TestWithParam<std::tuple<bool, const char*>>
 {
 };
 
@@ -444,7 +446,7 @@ NewtonReport split_report(const char* factorization, double kappa)
   return report;
 }
 
-TEST_P(PenaltySplit, ConvergesUnderTheStiffPenaltyToTheDirectSolversState)
+TEST_P(PenaltySplitSolve, ConvergesUnderTheStiffPenaltyToTheDirectSolversState)
 {
   const auto [constrained, factorization] = GetParam();
   const Factorisation chosen(factorization);
@@ -464,7 +466,7 @@ TEST_P(PenaltySplit, ConvergesUnderTheStiffPenaltyToTheDirectSolversState)
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(LiftedAndFree, PenaltySplit,
+INSTANTIATE_TEST_SUITE_P(LiftedAndFree, PenaltySplitSolve,
                          ::testing::Combine(::testing::Values(false, true),
                                             ::testing::Values("lower", "upper", "full")),
                          [](const auto& info)
@@ -478,15 +480,23 @@ namespace muscle
 struct NonlinearSolverTestAccess
 {
   static SNES snes(NonlinearSolver& solver) { return solver._snes; }
+  /// the penalty split that solves the condensed system
+  static PenaltySplit& split(const NonlinearSolver& solver)
+  {
+    const auto* fbar = dynamic_cast<const FbarFormulation*>(solver._formulation.get());
+    if (!fbar or !fbar->penalty_split())
+      throw std::logic_error("the solver has no penalty split");
+    return const_cast<PenaltySplit&>(*fbar->penalty_split());
+  }
   static bool sparse_schur_solve(NonlinearSolver& solver, std::vector<double>& q)
   {
-    return solver.sparse_schur_solve(q.data());
+    return split(solver).sparse_schur_solve(q.data());
   }
   /// the cells' unknowns q of the saddle form
   static std::size_t cells(const NonlinearSolver& solver)
   {
     std::size_t count = 0;
-    for (const auto& part : solver._split)
+    for (const auto& part : split(solver).removed_shares())
       count += part.size();
     return count;
   }
@@ -494,18 +504,19 @@ struct NonlinearSolverTestAccess
   /// linearisation, their removed penalty shares and the soft matrix's diagonal (one rank)
   static std::vector<double> schur_product(NonlinearSolver& solver, const std::vector<double>& q)
   {
+    const PenaltySplit& s = split(solver);
     Vec d;
-    MatCreateVecs(solver._A_soft, &d, nullptr);
-    MatGetDiagonal(solver._A_soft, d);
+    MatCreateVecs(s.soft_matrix(), &d, nullptr);
+    MatGetDiagonal(s.soft_matrix(), d);
     const PetscScalar* diagonal;
     VecGetArrayRead(d, &diagonal);
-    std::vector<double> w(solver._work2.array().size(), 0.0), Sq;
+    std::vector<double> w(solver._system.b().array().size(), 0.0), Sq;
     for (int pass = 0; pass < 2; ++pass)
     {
       std::size_t k = 0;
-      for (std::size_t part = 0; part < solver._cell_unknowns.size(); ++part)
+      for (std::size_t part = 0; part < s.cells().size(); ++part)
       {
-        const FbarCellUnknowns& cells = *solver._cell_unknowns[part];
+        const FbarCellUnknowns& cells = *s.cells()[part];
         const auto& data = cells.linearisation();
         for (std::size_t c = 0; c < data.K00.size(); ++c, ++k)
         {
@@ -521,7 +532,7 @@ struct NonlinearSolverTestAccess
               Bw += data.g[c * data.n + j] * w[dof] / diagonal[dof];
           }
           if (pass == 1)
-            Sq.push_back(q[k] + solver._split[part][c] * Bw);
+            Sq.push_back(q[k] + s.removed_shares()[part][c] * Bw);
         }
       }
     }
@@ -533,7 +544,7 @@ struct NonlinearSolverTestAccess
   static std::size_t split_cells(const NonlinearSolver& solver)
   {
     std::size_t count = 0;
-    for (const auto& part : solver._split)
+    for (const auto& part : split(solver).removed_shares())
       count += std::count_if(part.begin(), part.end(), [](double r) { return r > 0; });
     return count;
   }

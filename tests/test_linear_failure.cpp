@@ -6,7 +6,7 @@
 // field split.
 #include <common/errors.h>
 #include <common/petsc_options.h>
-#include <fem/linear_failure.h>
+#include <fem/linear/linear_failure.h>
 
 #include <functional>
 #include <gtest/gtest.h>

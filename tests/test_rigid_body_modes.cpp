@@ -4,9 +4,9 @@
 // mechanics, not of the code -- so every mode of rigid_body_modes(per body)
 // must give K z = 0 to round-off and vanish on the other block; the global
 // set has six, the per-body set twelve.
-#include <fem/muscle_problem.h>
-#include <fem/nonlinear_solver.h>
-#include <fem/rigid_body_modes.h>
+#include <fem/elements/muscle_problem.h>
+#include <fem/newton/nonlinear_solver.h>
+#include <fem/linear/rigid_body_modes.h>
 #include <material/parameters.h>
 
 #include <cmath>

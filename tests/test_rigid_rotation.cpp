@@ -1,8 +1,8 @@
 // The rotation of a body's best rigid fit: a displacement that is a rotation
 // (plus a translation, plus a strain that rotates nothing) returns the rotation
 // vector it was made with.
-#include <fem/muscle_problem.h>
-#include <fem/rigid_rotation.h>
+#include <fem/elements/muscle_problem.h>
+#include <fem/analysis/rigid_rotation.h>
 #include <material/parameters.h>
 
 #include <Eigen/Geometry>

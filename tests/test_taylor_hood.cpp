@@ -11,13 +11,13 @@
 // against PETSc's additive Schwarz on the same patches.
 #include "support/finite_differences.h"
 
-#include <fem/augmented_lagrangian.h>
-#include <fem/boundary.h>
-#include <fem/muscle_problem.h>
-#include <fem/p_multigrid.h>
-#include <fem/star_relaxation.h>
-#include <fem/uniform_constraint.h>
-#include <fem/vertex_star.h>
+#include <fem/linear/augmented_lagrangian.h>
+#include <fem/constraints/boundary.h>
+#include <fem/elements/muscle_problem.h>
+#include <fem/linear/p_multigrid.h>
+#include <fem/linear/star_relaxation.h>
+#include <fem/constraints/uniform_constraint.h>
+#include <fem/linear/vertex_star.h>
 #include <material/parameters.h>
 
 #include <Eigen/Dense>

@@ -1,10 +1,10 @@
-#include "application.h"
+#include "common/application.h"
 
 #include <chrono>
 #include <cstdlib>
 #include <thread>
 
-#include "errors.h"
+#include "common/errors.h"
 
 #include <cctype>
 #include <cmath>

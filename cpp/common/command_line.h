@@ -1,6 +1,6 @@
 #pragma once
 
-#include "errors.h"
+#include "common/errors.h"
 
 #include <CLI/CLI.hpp>
 #include <algorithm>

@@ -1,5 +1,5 @@
-#include "petsc_options.h"
-#include "errors.h"
+#include "common/petsc_options.h"
+#include "common/errors.h"
 #include <petscsys.h>
 
 #include <algorithm>
@@ -9,6 +9,22 @@
 
 namespace muscle
 {
+
+SolverOptions::SolverOptions()
+{
+  PetscOptionsCreate(&_options);
+  char* all = nullptr;
+  PetscOptionsGetAll(nullptr, &all);
+  if (all)
+    PetscOptionsInsertString(_options, all);
+  PetscFree(all);
+}
+
+SolverOptions::~SolverOptions() { PetscOptionsDestroy(&_options); }
+
+SolverOptions::Active::Active(const SolverOptions& options) { PetscOptionsPush(options._options); }
+
+SolverOptions::Active::~Active() { PetscOptionsPop(); }
 
 void set_unless_given(const char* name, const char* value)
 {

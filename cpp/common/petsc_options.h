@@ -1,11 +1,42 @@
 #pragma once
 
 #include <initializer_list>
+#include <petscsys.h>
 #include <string>
 #include <utility>
 
 namespace muscle
 {
+
+/// A solver's own PETSc options database: a copy of the process's (the command
+/// line's and a scene's options) when made, to which the solver adds its
+/// defaults (set_unless_given while it is active).  While an `Active` scope
+/// lives it is PETSc's default database, so every object the solver sets up or
+/// solves with -- the nested ones PETSc creates itself (field split blocks,
+/// multigrid levels) included -- reads it, and nothing the solver sets reaches
+/// the process's database or another solver.  Scopes nest (a stack).
+class SolverOptions
+{
+public:
+  SolverOptions();
+  ~SolverOptions();
+  SolverOptions(const SolverOptions&) = delete;
+  SolverOptions& operator=(const SolverOptions&) = delete;
+
+  class Active
+  {
+  public:
+    explicit Active(const SolverOptions& options);
+    ~Active();
+    Active(const Active&) = delete;
+    Active& operator=(const Active&) = delete;
+  };
+  /// This database as the default one for the scope of the returned object.
+  [[nodiscard]] Active activate() const { return Active(*this); }
+
+private:
+  PetscOptions _options = nullptr;
+};
 
 /// Sets PETSc option `name` (to `value`, or as a flag if null) unless the user
 /// gave it: the command line wins over a scene's or a solver's defaults.

@@ -1,4 +1,4 @@
-#include "data.h"
+#include "fit/data.h"
 
 #include <common/errors.h>
 

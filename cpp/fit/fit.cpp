@@ -1,4 +1,4 @@
-#include "fit.h"
+#include "fit/fit.h"
 
 #include <common/errors.h>
 

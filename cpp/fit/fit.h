@@ -4,7 +4,7 @@
 // trust region) of the exact homogeneous load-case responses P_exact against
 // stress-stretch data, with the paper's error measures and an identifiability
 // analysis of the Jacobian at the solution.
-#include "data.h"
+#include "fit/data.h"
 
 #include <map>
 #include <optional>

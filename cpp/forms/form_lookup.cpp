@@ -1,5 +1,5 @@
-#include "../common/errors.h"
-#include "form_registry.h"
+#include "common/errors.h"
+#include "forms/form_registry.h"
 
 #include <map>
 #include <utility>

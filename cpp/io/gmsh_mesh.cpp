@@ -1,6 +1,6 @@
-#include "gmsh_mesh.h"
+#include "io/gmsh_mesh.h"
 
-#include "../common/errors.h"
+#include "common/errors.h"
 
 #include <dolfinx/fem/CoordinateElement.h>
 #include <dolfinx/graph/AdjacencyList.h>
@@ -61,7 +61,8 @@ mesh::CellType dolfinx_cell(int gmsh_type)
 /// Before a .geo is meshed in 3-D: the number of cells estimated from its 1-D
 /// mesh (cells ~ bounding-box volume / h^3, h the median edge length, an
 /// over-estimate for non-box shapes) and a refusal when even a lean 4 KiB per
-/// cell (the F-bar COMBI fusiform takes ~30 KiB with GAMG, BENCHMARKS.md)
+/// cell (several times less than the fusiform runs take; BENCHMARKS.md, "Linear
+/// solvers, ranks and n = 4")
 /// exceeds this machine's memory -- a typo such as refinement 1000 would
 /// otherwise mesh for hours.
 void refuse_impossible_mesh(const std::string& path)

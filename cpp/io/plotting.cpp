@@ -1,6 +1,6 @@
-#include "plotting.h"
+#include "io/plotting.h"
 
-#include "../common/application.h"
+#include "common/application.h"
 
 #include <cstdlib>
 #include <iostream>

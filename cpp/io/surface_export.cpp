@@ -1,6 +1,6 @@
-#include "surface_export.h"
+#include "io/surface_export.h"
 
-#include "../common/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <dolfinx/mesh/utils.h>

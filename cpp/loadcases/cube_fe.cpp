@@ -1,7 +1,7 @@
-#include "cube_fe.h"
+#include "loadcases/cube_fe.h"
 
-#include "../common/errors.h"
-#include "../fem/boundary.h"
+#include "common/errors.h"
+#include "fem/constraints/boundary.h"
 
 #include <algorithm>
 #include <cmath>

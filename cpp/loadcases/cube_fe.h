@@ -1,8 +1,8 @@
 #pragma once
 
-#include "../fem/muscle_problem.h"
-#include "../fem/nonlinear_solver.h"
-#include "load_case.h"
+#include "fem/elements/muscle_problem.h"
+#include "fem/newton/nonlinear_solver.h"
+#include "loadcases/load_case.h"
 
 #include <functional>
 #include <memory>

@@ -1,6 +1,6 @@
-#include "curve.h"
+#include "loadcases/curve.h"
 
-#include "../common/errors.h"
+#include "common/errors.h"
 
 #include <fstream>
 #include <iomanip>

@@ -1,7 +1,7 @@
 #pragma once
 
-#include "cube_fe.h"
-#include "load_case.h"
+#include "loadcases/cube_fe.h"
+#include "loadcases/load_case.h"
 
 #include <optional>
 #include <string>

@@ -1,5 +1,5 @@
-#include "../common/errors.h"
-#include "load_case.h"
+#include "common/errors.h"
+#include "loadcases/load_case.h"
 
 #include <boost/math/tools/roots.hpp>
 #include <cmath>

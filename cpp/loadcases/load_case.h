@@ -1,6 +1,6 @@
 #pragma once
 
-#include "../material/material_point.h"
+#include "material/material_point.h"
 
 #include <optional>
 #include <string>

@@ -2,7 +2,7 @@
 // tab:analytical_responses), written from the table, with ERRATA.md applied.
 // Deliberately independent of the UFL forms: this is the reference the exact
 // homogeneous responses are tested against.
-#include "load_case.h"
+#include "loadcases/load_case.h"
 
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 #include <boost/math/special_functions/lambert_w.hpp>

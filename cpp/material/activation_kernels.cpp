@@ -1,6 +1,6 @@
-#include "activation_kernels.h"
+#include "material/activation_kernels.h"
 
-#include "root_finding.h"
+#include "material/root_finding.h"
 
 #include <algorithm>
 #include <boost/math/special_functions/lambert_w.hpp>

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "ehret_uniaxial.h"
+#include "material/ehret_uniaxial.h"
 
 namespace muscle
 {

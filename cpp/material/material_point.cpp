@@ -1,7 +1,7 @@
-#include "material_point.h"
+#include "material/material_point.h"
 
-#include "../common/errors.h"
-#include "../forms/form_registry.h"
+#include "common/errors.h"
+#include "forms/form_registry.h"
 
 #include <map>
 #include <stdexcept>

@@ -1,7 +1,7 @@
 #pragma once
 
-#include "activation_kernels.h"
-#include "parameters.h"
+#include "material/activation_kernels.h"
+#include "material/parameters.h"
 
 #include <array>
 #include <string>

@@ -1,7 +1,7 @@
-#include "parameters.h"
+#include "material/parameters.h"
 
-#include "../common/errors.h"
-#include "time_functions.h"
+#include "common/errors.h"
+#include "material/time_functions.h"
 
 #include <algorithm>
 #include <cctype>

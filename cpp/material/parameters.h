@@ -1,6 +1,6 @@
 #pragma once
 
-#include "../forms/form_registry.h"
+#include "forms/form_registry.h"
 
 #include <string>
 #include <vector>

@@ -1,6 +1,6 @@
-#include "time_functions.h"
+#include "material/time_functions.h"
 
-#include "parameters.h"
+#include "material/parameters.h"
 
 #include <cmath>
 #include <string>

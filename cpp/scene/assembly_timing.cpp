@@ -1,9 +1,9 @@
-#include "assembly_timing.h"
+#include "scene/assembly_timing.h"
 
-#include "../common/application.h"
-#include "../common/errors.h"
-#include "clock.h"
-#include "scene_model.h"
+#include "common/application.h"
+#include "common/errors.h"
+#include "scene/clock.h"
+#include "scene/scene_model.h"
 
 #include <algorithm>
 #include <cstdio>

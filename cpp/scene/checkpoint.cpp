@@ -1,6 +1,6 @@
-#include "checkpoint.h"
+#include "scene/checkpoint.h"
 
-#include "../common/errors.h"
+#include "common/errors.h"
 
 #include <cmath>
 #include <cstdio>

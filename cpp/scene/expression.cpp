@@ -1,6 +1,6 @@
-#include "expression.h"
+#include "scene/expression.h"
 
-#include "../common/errors.h"
+#include "common/errors.h"
 
 #include <muParser.h>
 
@@ -148,7 +148,7 @@ Expression::Expression(const std::string& text, const std::vector<std::string>& 
 {
   mu::Parser& p = _compiled->parser;
   // the optimizer would rewrite (z - 50)/20 as z*0.05 - 2.5 and x^3 as x*x*x:
-  // not the arithmetic written (last bits), for 20% of the time
+  // not the arithmetic written (last bits), for a small saving
   p.EnableOptimizer(false);
   p.ClearFun();
   p.ClearConst();

@@ -1,8 +1,8 @@
-#include "field_output.h"
+#include "scene/field_output.h"
 
-#include "../fem/contact.h"
-#include "../io/surface_export.h"
-#include "scene_model.h"
+#include "fem/contact/contact.h"
+#include "io/surface_export.h"
+#include "scene/scene_model.h"
 
 #include <dolfinx/io/XDMFFile.h>
 

@@ -1,12 +1,12 @@
-#include "part_fields.h"
+#include "scene/part_fields.h"
 
-#include "../common/application.h"
-#include "../common/errors.h"
-#include "../fem/fibres.h"
-#include "../fem/muscle_problem.h"
-#include "../io/gmsh_mesh.h"
-#include "point_data.h"
-#include "scene_model.h"
+#include "common/application.h"
+#include "common/errors.h"
+#include "fem/elements/fibres.h"
+#include "fem/elements/muscle_problem.h"
+#include "io/gmsh_mesh.h"
+#include "scene/point_data.h"
+#include "scene/scene_model.h"
 
 #include <cmath>
 #include <dolfinx/mesh/utils.h>

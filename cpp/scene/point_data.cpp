@@ -1,6 +1,6 @@
-#include "point_data.h"
+#include "scene/point_data.h"
 
-#include "../common/errors.h"
+#include "common/errors.h"
 
 #include <nanoflann.hpp>
 

@@ -1,12 +1,12 @@
-#include "run_outputs.h"
+#include "scene/run_outputs.h"
 
-#include "../common/application.h"
-#include "../common/errors.h"
-#include "../fem/eigenfrequencies.h"
-#include "../fem/generalized_alpha.h"
-#include "checkpoint.h"
-#include "scene_model.h"
-#include "series_quantities.h"
+#include "common/application.h"
+#include "common/errors.h"
+#include "fem/analysis/eigenfrequencies.h"
+#include "fem/time/generalized_alpha.h"
+#include "scene/checkpoint.h"
+#include "scene/scene_model.h"
+#include "scene/series_quantities.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,10 +1,10 @@
 #pragma once
 
-#include "clock.h"
-#include "field_output.h"
-#include "run_progress.h"
-#include "runner.h"
-#include "scene.h"
+#include "scene/clock.h"
+#include "scene/field_output.h"
+#include "scene/run_progress.h"
+#include "scene/runner.h"
+#include "scene/scene.h"
 
 #include <fstream>
 #include <nlohmann/json.hpp>

@@ -1,8 +1,8 @@
-#include "run_progress.h"
+#include "scene/run_progress.h"
 
-#include "../common/application.h"
-#include "../common/errors.h"
-#include "checkpoint.h"
+#include "common/application.h"
+#include "common/errors.h"
+#include "scene/checkpoint.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,7 +1,7 @@
 #pragma once
 
-#include "runner.h"
-#include "scene.h"
+#include "scene/runner.h"
+#include "scene/scene.h"
 
 #include <dolfinx/fem/Function.h>
 #include <nlohmann/json.hpp>

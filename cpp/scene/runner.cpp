@@ -1,15 +1,15 @@
-#include "runner.h"
+#include "scene/runner.h"
 
-#include "../common/command_line.h"
-#include "../common/errors.h"
-#include "../common/petsc_options.h"
-#include "../fem/condition_number.h"
-#include "assembly_timing.h"
-#include "clock.h"
-#include "run_outputs.h"
-#include "run_progress.h"
-#include "scene_model.h"
-#include "series_quantities.h"
+#include "common/command_line.h"
+#include "common/errors.h"
+#include "common/petsc_options.h"
+#include "fem/analysis/condition_number.h"
+#include "scene/assembly_timing.h"
+#include "scene/clock.h"
+#include "scene/run_outputs.h"
+#include "scene/run_progress.h"
+#include "scene/scene_model.h"
+#include "scene/series_quantities.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,10 +1,10 @@
 #pragma once
 
-#include "../fem/nonlinear_solver.h"
-#include "../fem/time_stepping.h"
-#include "../material/activation_kernels.h"
-#include "../material/parameters.h"
-#include "expression.h"
+#include "fem/newton/nonlinear_solver.h"
+#include "fem/time/time_stepping.h"
+#include "material/activation_kernels.h"
+#include "material/parameters.h"
+#include "scene/expression.h"
 
 #include <array>
 #include <map>

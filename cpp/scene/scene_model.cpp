@@ -1,14 +1,14 @@
-#include "scene_model.h"
+#include "scene/scene_model.h"
 
-#include "../common/application.h"
-#include "../common/errors.h"
-#include "../fem/boundary.h"
-#include "../fem/element_choice.h"
-#include "../fem/point_probe.h"
-#include "../fem/rigid_body_modes.h"
-#include "../fem/uniform_constraint.h"
-#include "../material/material_point.h"
-#include "../material/time_functions.h"
+#include "common/application.h"
+#include "common/errors.h"
+#include "fem/constraints/boundary.h"
+#include "fem/elements/element_choice.h"
+#include "fem/analysis/point_probe.h"
+#include "fem/linear/rigid_body_modes.h"
+#include "fem/constraints/uniform_constraint.h"
+#include "material/material_point.h"
+#include "material/time_functions.h"
 
 #include <algorithm>
 #include <cmath>
@@ -493,9 +493,9 @@ NewtonOptions newton_options(const Scene& scene, const SceneModel& model)
 {
   // Contact makes the energy along a Newton direction kinked where points enter
   // or leave contact, and the critical-point line search struggles there.
-  // Measured (Hertz scene, 2 steps): cp 33 Newton iterations + 1 cutback (54 s),
-  // basic 29 + 1 (48 s), bt 19 (35 s); sliding blocks: basic diverges, cp and bt
-  // converge.  So bt with contact unless the scene chooses.
+  // Measured on the Hertz scene, bt needs the fewest Newton iterations; on sliding
+  // blocks basic diverges, cp and bt converge.  So bt with contact unless the scene
+  // chooses (BENCHMARKS.md, "Line searches").
   NewtonOptions newton = scene.newton;
   if (!model.contacts.empty() and !scene.line_search_given)
     newton.line_search = "bt";

@@ -1,15 +1,15 @@
 #pragma once
 
-#include "part_fields.h"
-#include "scene.h"
+#include "scene/part_fields.h"
+#include "scene/scene.h"
 
-#include "../fem/constraint.h"
-#include "../fem/contact.h"
-#include "../fem/generalized_alpha.h"
-#include "../fem/loads.h"
-#include "../fem/muscle_problem.h"
-#include "../fem/tie_constraint.h"
-#include "../io/gmsh_mesh.h"
+#include "fem/constraints/constraint.h"
+#include "fem/contact/contact.h"
+#include "fem/time/generalized_alpha.h"
+#include "fem/terms/loads.h"
+#include "fem/elements/muscle_problem.h"
+#include "fem/constraints/tie_constraint.h"
+#include "io/gmsh_mesh.h"
 
 #include <array>
 #include <dolfinx/fem/Constant.h>

@@ -1,10 +1,10 @@
 // Scene files: YAML -> Scene, with every mistake reported as
 // "FILE:LINE: KEY: what is wrong; what is allowed".
-#include "scene.h"
+#include "scene/scene.h"
 
-#include "../common/errors.h"
-#include "../fem/element_choice.h"
-#include "../forms/form_registry.h"
+#include "common/errors.h"
+#include "fem/elements/element_choice.h"
+#include "forms/form_registry.h"
 
 #include <algorithm>
 #include <cmath>

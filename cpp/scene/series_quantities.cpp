@@ -1,11 +1,11 @@
-#include "series_quantities.h"
+#include "scene/series_quantities.h"
 
-#include "../common/errors.h"
-#include "../fem/boundary.h"
-#include "../fem/generalized_alpha.h"
-#include "../fem/point_probe.h"
-#include "../fem/rigid_rotation.h"
-#include "scene_model.h"
+#include "common/errors.h"
+#include "fem/constraints/boundary.h"
+#include "fem/time/generalized_alpha.h"
+#include "fem/analysis/point_probe.h"
+#include "fem/analysis/rigid_rotation.h"
+#include "scene/scene_model.h"
 
 #include <algorithm>
 #include <cmath>

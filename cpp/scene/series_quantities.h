@@ -1,6 +1,6 @@
 #pragma once
 
-#include "scene.h"
+#include "scene/scene.h"
 
 #include <dolfinx/fem/Form.h>
 #include <dolfinx/la/Vector.h>

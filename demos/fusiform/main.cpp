@@ -17,7 +17,8 @@
 #include <common/application.h>
 #include <common/command_line.h>
 #include <common/errors.h>
-#include <fem/element_choice.h>
+#include <fem/elements/element_choice.h>
+#include <fem/linear/linear_solvers.h>
 #include <io/plotting.h>
 #include <scene/runner.h>
 #include <scene/scene.h>
@@ -135,16 +136,18 @@ Run parse(std::vector<std::string> args)
                  "(fusiform.geo: core, the central block's radius fraction)")->take_all();
   app.add_option("--output-every", output_every, "write fields every N steps")
       ->capture_default_str();
-  app.add_option("--linear-solver", linear_solver, "lu (MUMPS, the default), gmres-hypre, "
-                 "gmres-gamg, gmres-schur (F-bar: the penalty split; Taylor-Hood: the Schur "
-                 "field split) or gmres-stars (Taylor-Hood: that split relaxed on vertex stars)")
+  std::string solvers;
+  for (const LinearSolverType& type : linear_solver_table())
+    solvers += (solvers.empty() ? "" : ", ") + type.name + " (" + type.summary + ")";
+  app.add_option("--linear-solver", linear_solver, solvers)
       ->check(CLI::IsMember(NewtonOptions::linear_solvers()));
   app.add_option("--linear-rtol", linear_rtol,
                  "relative tolerance of the iterative linear solvers (default 1e-10)")
       ->type_name("R");
   app.add_option("--line-search", line_search,
-                 "PETSc line search: basic (default: full Newton steps, BENCHMARKS.md \"Line "
-                 "searches\"), cp, bt or l2")
+                 "PETSc line search: cp (the fusiform scenes' default: the fewest Newton "
+                 "iterations there, BENCHMARKS.md \"Line searches\"), basic (full Newton "
+                 "steps), bt or l2")
       ->check(CLI::IsMember(NewtonOptions::line_searches()));
   app.add_option("--max-cutbacks", max_cutbacks, "halvings of a failing step (default 8)")
       ->type_name("N");

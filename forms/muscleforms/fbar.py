@@ -4,7 +4,7 @@ The energy is evaluated at F_bar = (J0/J)^(1/3) F, with J0 = det F at the cell c
 det F_bar = J0 at every quadrature point, so a Q1 cell carries one volume constraint
 instead of eight and does not lock.  Because J0 depends on the cell's displacement
 through one point, the element is written with J0 as an extra cell unknown and C++
-eliminates it cell by cell (cpp/fem/fbar_element.cpp), which keeps the tangent exact:
+eliminates it cell by cell (cpp/fem/elements/fbar_element.cpp), which keeps the tangent exact:
 
     R = R_u + r_0 g,
     K = K_uu + K_u0 g^T + g K_0u + K_00 g g^T + r_0 G,
@@ -15,7 +15,7 @@ G = d2J0/du2 from kernels on the centre point ("fbar_gradient", "fbar_hessian",
 "fbar_centre").
 
 With J0 = theta kept as a cell unknown and its constraint J0(u) = theta enforced by
-a multiplier p (the three-field form, cpp/fem/fbar_unknowns.h), the same kernels give
+a multiplier p (the three-field form, cpp/fem/elements/fbar_unknowns.h), the same kernels give
 
     R_u = R_u(u, theta) + p g,   R_theta = r_0 - p,   R_p = J0(u) - theta,
 

@@ -8,9 +8,9 @@
              R = -int rho g . v dV
   area       functional: current area of the surface tagged 1 (Nanson: |cof(F) N| dA)
   mass       bilinear form int rho du . v dV (consistent mass of structural dynamics,
-             cpp/fem/generalized_alpha.h), density DG0 as for gravity
+             cpp/fem/time/generalized_alpha.h), density DG0 as for gravity
 
-C++ (cpp/fem/loads.cpp) tags each load's facets 1 and sets the constants per time.
+C++ (cpp/fem/terms/loads.cpp) tags each load's facets 1 and sets the constants per time.
 """
 
 import ufl

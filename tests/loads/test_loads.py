@@ -213,6 +213,27 @@ def test_line_search_named_when_it_fails(build, scratch):
         assert json.load(f)["step"] == 1
 
 
+def test_line_search_creeping_cp_stops_early(build, scratch):
+    """cp on the cantilever takes about 0.14 % of each Newton step (the bending
+    increment's straight line raises the energy): with the stagnation test off it
+    would spend all 25 iterations of every attempt.  The creep guard stops an
+    attempt after three steps below 1 % of the Newton step, and the stop message
+    names cp and suggests basic."""
+    out = os.path.join(scratch, "creep")
+    result = cantilever(build, out, ["solver.line_search=cp", "solver.stagnation_window=0",
+                                     "time.max_cutbacks=0", "time.end=0.1"])
+    message = result.stderr.strip()
+    assert result.returncode == 3, f"exit {result.returncode}: {message}"
+    assert "LINE SEARCH CREEPING" in message and "(cp)" in message, message
+    advice = message.split("Try:")[-1]
+    assert "--line-search basic" in advice, f"the advice suggests basic: {advice}"
+    with open(os.path.join(out, "summary.json")) as f:
+        failure = json.load(f)["failure"]
+    lengths = failure["step_lengths"]
+    assert failure["newton_iterations"] == 3 and len(lengths) == 3 \
+        and max(lengths) < 0.01, f"three creeping iterations, then the stop: {failure}"
+
+
 def test_line_search_innocent_when_full_steps_fail(build, scratch):
     """basic (full steps) fails the scene's first step without a cutback (the residual
     grows beyond PETSc's divergence tolerance): no line search to blame.  With the
