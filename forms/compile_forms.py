@@ -18,6 +18,11 @@ these elements' kernels (laws, loads, fibres; --extra-variant always), --variant
 the FE variants whose name (e.g. combi_hex1_q2_fbar) the regular expression matches: a
 build for one job compiles what the job uses, and the registry names the rest as not
 compiled.
+
+Every call checks the law files first (muscleforms/law.py: declarations, roles, omega
+kernels against cpp/material/activation_kernels.cpp; here: the energies traced with UFL,
+so that a parameter used but not declared is found): a mistake is one line
+"error: FILE:LINE: what is wrong" and exit status 1, before FFCx runs.
 """
 
 import argparse
@@ -28,7 +33,12 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from muscleforms import fbar, law as laws_module, loads, taylor_hood, variants  # noqa: E402
+from muscleforms import law as laws_module  # noqa: E402  (no UFL: the declarations)
+
+try:
+    from muscleforms import fbar, loads, taylor_hood, variants  # noqa: E402
+except ImportError as e:  # the one failure that is the machine's, not a law file's
+    raise SystemExit(f"error: cannot import UFL/FFCx/Basix ({e}): is python3-ffcx installed?")
 
 
 ALL_ELEMENTS = [(c, d) for c in variants.CELLS for d in (1, 2)]
@@ -132,6 +142,21 @@ def compile_law(law, sets, extra, outdir, parameters):
                         outdir, parameters)
 
 
+def check_energy(law, sets):
+    """Build the material-point UFL of the law's kernel sets (no FFCx: a fraction of a
+    second) and its volumetric_stiff_part: LawError "FILE:LINE: ..." on an undeclared
+    parameter or any other error in the energy."""
+    for kernels, (owner, active) in sets.items():
+        if owner is not law:
+            continue
+        try:
+            variants.build_material_point_variant(law, active)
+            if law.volumetric_stiff_part is not None:
+                variants.check_volumetric_part(law)
+        except Exception as e:  # noqa: BLE001 -- any error of the user's energy is reported
+            raise laws_module.LawError(laws_module.located(law.source, e, law.lines.get("energy")))
+
+
 def cpp_string(text):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
@@ -149,11 +174,12 @@ def law_source(law):
         f"{cpp_number(p.upper)}, {str(p.lower_open).lower()}, {str(p.upper_open).lower()}, "
         f"{cpp_string(p.unit)}, {cpp_string(p.meaning)}}}" for p in law.parameters)
     fit = ", ".join(cpp_string(n) for n in law.fit_parameters)
+    roles = ", ".join(cpp_string(r) for r in law.default_for)
     return (f"      {{{cpp_string(law.name)}, {cpp_string(law.description)}, "
             f"{cpp_string(law.source)},\n       {{{params}}},\n       "
             f"{cpp_string(a.drive)}, {cpp_string(a.time_function)}, {cpp_string(a.kernel)}, "
             f"{a.taylor_order}, {str(a.stress_holds_omega).lower()}, {cpp_string(law.passive)}, "
-            f"{str(law.volumetric_stiff_part is not None).lower()}, {{{fit}}}}},")
+            f"{str(law.volumetric_stiff_part is not None).lower()}, {{{fit}}}, {{{roles}}}}},")
 
 
 def registry_source(laws, sets, extra):
@@ -184,7 +210,11 @@ def registry_source(laws, sets, extra):
               "const std::vector<LawInfo>& laws()", "{",
               "  static const std::vector<LawInfo> table = {"]
     lines += [law_source(law) for law in laws.values()]
+    kernels = ", ".join(cpp_string(k) for k in laws_module.omega_kernels())
     lines += ["  };", "  return table;", "}", "",
+              "const std::vector<const char*>& registered_omega_kernels()", "{",
+              f"  static const std::vector<const char*> names = {{{kernels}}};",
+              "  return names;", "}", "",
               "const std::vector<FeVariant>& fe_variants()", "{",
               "  static const std::vector<FeVariant> table = {"]
     for (kernels, cell, degree, qdeg, vqdeg, kind) in fe:
@@ -263,21 +293,24 @@ def main():
         raise SystemExit(f"error: --variants {args.variants!r}: not a regular expression ({e})")
     VARIANTS[0] = args.variants
 
+    everything = not (args.law or args.fibres or args.loads or args.registry or args.cmake)
     try:
         laws = laws_module.load_laws(args.material)
+        sets = laws_module.kernel_sets(laws)
+        unknown = [n for n in args.law if n not in laws]
+        if unknown:
+            raise SystemExit(f"error: --law {unknown[0]}: laws are {', '.join(laws)}")
+        # the configure step (--cmake) checks every energy; FFCx's runs their own
+        for name in (laws if args.cmake or everything else args.law):
+            check_energy(laws[name], sets)
     except laws_module.LawError as e:
         raise SystemExit(f"error: {e}")
-    sets = laws_module.kernel_sets(laws)
     extra = [parse_variant(v, sets) for v in args.extra_variant]
     outdir = pathlib.Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
-    everything = not (args.law or args.fibres or args.loads or args.registry or args.cmake)
 
     if args.cmake:
         write_if_changed(args.cmake, cmake_source(laws, sets, extra))
-    unknown = [n for n in args.law if n not in laws]
-    if unknown:
-        raise SystemExit(f"error: --law {unknown[0]}: laws are {', '.join(laws)}")
     if args.law or args.fibres or args.loads or everything:
         from ffcx.parameters import get_parameters
         parameters = get_parameters({"verbosity": 40})

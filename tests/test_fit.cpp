@@ -78,6 +78,14 @@ std::string read_error(const std::string& path)
 }
 } // namespace
 
+TEST(FitDefaults, ResultBeforeTheFitHoldsTheFitDefault)
+{
+  // the law declared DEFAULT_FOR "fit" in its file (ble.py), no name in C++
+  const FitResult r;
+  EXPECT_EQ(r.start.model(), default_model("fit"));
+  EXPECT_EQ(r.fitted.model().name(), "ble");
+}
+
 // eps_inf, eps_1 and eps_2 by hand: x = (1, 2, 3), x* = (1, 1, 4):
 // |x - x*| = (0, 1, 1): max 1 / max 4, sum 2 / sum 6, sqrt 2 / sqrt 18.
 TEST(FitErrors, PaperDefinitions)

@@ -38,6 +38,14 @@ std::vector<std::string> demo_scenes()
 }
 } // namespace
 
+TEST(SceneDefaults, PartWithoutMaterialTakesTheMuscleDefault)
+{
+  // the law declared DEFAULT_FOR "muscle" in its file (combi.py), no name in C++
+  const Part part;
+  EXPECT_EQ(part.parameters.model(), default_model("muscle"));
+  EXPECT_EQ(part.parameters.model().name(), "combi");
+}
+
 TEST(Expression, AgreesWithDirectEvaluation)
 {
   const std::vector<std::string> vars = {"x", "y", "z", "t"};

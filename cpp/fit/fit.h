@@ -123,8 +123,9 @@ Identifiability analyse_identifiability(const std::vector<double>& jacobian,
 
 struct FitResult
 {
-  ParameterSet start{Model("ble")};
-  ParameterSet fitted{Model("ble")};
+  /// before a fit: the law declared DEFAULT_FOR "fit" (BLE)
+  ParameterSet start{default_model("fit")};
+  ParameterSet fitted{default_model("fit")};
   std::vector<std::string> free;
   std::vector<std::string> at_bound; ///< free parameters that end on a bound
   std::vector<double> residuals;     ///< weighted, at the solution

@@ -31,16 +31,23 @@ struct LawInfo
   std::vector<ParameterInfo> parameters; ///< the law's, then its time function's
   const char* drive;         ///< "none", "level" (time factor x scale) or "omega_kernel"
   const char* time_function; ///< "none", "tanh" or "twitch_train"
-  const char* omega_kernel;  ///< the C++ quadrature-point kernel ("wkm", "giant") or ""
+  const char* omega_kernel;  ///< the C++ quadrature-point kernel (omega_kernels()) or ""
   int taylor_order;          ///< derivatives of omega_a the forms read
   bool stress_holds_omega;   ///< the stress treats omega_a as fixed (WKM, eq. S_WKM)
   const char* passive;       ///< kernel set of the passive state
   bool anti_locking;         ///< has the Q1 with the volumetric part on one point
   std::vector<const char*> fit_parameters; ///< freed by the fit by default
+  /// DEFAULT_FOR: the roles in which a program takes this law when none is named
+  /// ("muscle", "fit", "paper"; forms/muscleforms/law.py ROLES)
+  std::vector<const char*> default_for;
 };
 
 /// Every law, in file-name order.
 const std::vector<LawInfo>& laws();
+
+/// The omega kernels as the build read them from cpp/material/activation_kernels.cpp
+/// (MUSCLE_OMEGA_KERNEL lines); the C++ registry is muscle::omega_kernels().
+const std::vector<const char*>& registered_omega_kernels();
 
 /// The F-bar hexahedron's own kernels (forms/muscleforms/fbar.py): a mixed
 /// element on (u, J0) whose J0 = det F at the centre C++ eliminates per cell.

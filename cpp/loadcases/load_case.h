@@ -68,8 +68,9 @@ ExactResponse exact_response(const MaterialPointModel& model, LoadCase c,
 std::optional<double> paper_response(const ParameterSet& p, LoadCase c,
                                      MuscleState state, double s);
 
-/// The paper's four models (BLE, WKM, GIANT, COMBI): the laws paper_response
-/// knows and the load-case study runs by default.
+/// The paper's four models: the laws whose files declare DEFAULT_FOR "paper"
+/// (ble, combi, giant, wkm, in file-name order), those paper_response knows and the
+/// load-case study runs by default.
 const std::vector<Model>& paper_models();
 
 } // namespace muscle

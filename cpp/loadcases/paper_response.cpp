@@ -270,8 +270,7 @@ std::optional<double> ehret(const ParameterSet& p, LoadCase c, double f_t,
 
 const std::vector<Model>& paper_models()
 {
-  static const std::vector<Model> models
-      = {Model("ble"), Model("wkm"), Model("giant"), Model("combi")};
+  static const std::vector<Model> models = models_for("paper");
   return models;
 }
 

@@ -1,14 +1,48 @@
 #include "material/activation_kernels.h"
 
+#include "common/errors.h"
 #include "material/root_finding.h"
 
 #include <algorithm>
 #include <boost/math/special_functions/lambert_w.hpp>
 #include <cmath>
+#include <stdexcept>
 #include <utility>
+#include <vector>
 
 namespace muscle
 {
+namespace
+{
+std::map<std::string, OmegaKernel>& registry()
+{
+  static std::map<std::string, OmegaKernel> kernels;
+  return kernels;
+}
+} // namespace
+
+const std::map<std::string, OmegaKernel>& omega_kernels()
+{
+  return registry();
+}
+
+OmegaKernel find_omega_kernel(const std::string& name, const std::string& who)
+{
+  if (auto it = registry().find(name); it != registry().end())
+    return it->second;
+  std::vector<std::string> names;
+  for (const auto& [k, _] : registry())
+    names.push_back(k);
+  throw InputError(who + ": omega kernel '" + name + "' is not registered; registered: "
+                   + join(names) + " (MUSCLE_OMEGA_KERNEL in cpp/material/activation_kernels.cpp)");
+}
+
+bool register_omega_kernel(const char* name, OmegaKernel kernel)
+{
+  if (!registry().emplace(name, kernel).second)
+    throw std::logic_error(std::string("omega kernel '") + name + "' registered twice");
+  return true;
+}
 
 OmegaTaylor wkm_omega(double l, double level, const EhretParameters& p,
                       double root_tolerance)
@@ -74,6 +108,7 @@ OmegaTaylor wkm_omega(double l, double level, const EhretParameters& p,
   r.ok = std::isfinite(r.value) and std::isfinite(r.d1);
   return r;
 }
+MUSCLE_OMEGA_KERNEL("wkm", wkm_omega);
 
 namespace
 {
@@ -145,5 +180,6 @@ OmegaTaylor giant_omega(double l, double level, const EhretParameters& p,
   r.ok = std::isfinite(r.value) and std::isfinite(r.d1) and std::isfinite(r.d2);
   return r;
 }
+MUSCLE_OMEGA_KERNEL("giant", giant_omega);
 
 } // namespace muscle

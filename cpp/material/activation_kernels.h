@@ -2,6 +2,9 @@
 
 #include "material/ehret_uniaxial.h"
 
+#include <map>
+#include <string>
+
 namespace muscle
 {
 
@@ -51,4 +54,28 @@ OmegaTaylor wkm_omega(double stretch, double level, const EhretParameters& p,
 OmegaTaylor giant_omega(double stretch, double level, const EhretParameters& p,
                         double root_tolerance = default_root_tolerance);
 
+/// A quadrature-point kernel: omega_a and its derivatives at one fibre stretch.
+using OmegaKernel = OmegaTaylor (*)(double stretch, double level, const EhretParameters& p,
+                                    double root_tolerance);
+
+/// The quadrature-point kernels by the name a law file gives them
+/// (ACTIVATION = omega_kernel("wkm", ...)).  Each registers itself where it is
+/// defined, MUSCLE_OMEGA_KERNEL("name", function) in activation_kernels.cpp, and the
+/// build reads the names from that file (forms/muscleforms/law.py omega_kernels):
+/// a law that names no registered kernel stops the configure step.
+const std::map<std::string, OmegaKernel>& omega_kernels();
+
+/// The kernel registered as `name`; InputError "WHO: omega kernel 'NAME' is not
+/// registered; registered: ..." otherwise.
+OmegaKernel find_omega_kernel(const std::string& name, const std::string& who);
+
+/// What MUSCLE_OMEGA_KERNEL calls; a name registered twice is a logic error.
+bool register_omega_kernel(const char* name, OmegaKernel kernel);
+
 } // namespace muscle
+
+/// Registers `function` as the omega kernel `name` (a string literal).  Only in
+/// activation_kernels.cpp, one a line: the build reads the names from that file.
+#define MUSCLE_OMEGA_KERNEL(name, function)                                               \
+  [[maybe_unused]] const bool muscle_omega_kernel_##function                              \
+      = ::muscle::register_omega_kernel(name, &function)

@@ -3,7 +3,6 @@
 #include "common/errors.h"
 #include "forms/form_registry.h"
 
-#include <map>
 #include <stdexcept>
 #include <ufcx.h>
 
@@ -21,19 +20,24 @@ EhretParameters ehret_parameters(const ParameterSet& p)
           p["omega_0"], p["lambda_min"], p["lambda_opt"]};
 }
 
+OmegaKernel omega_kernel_of(const Model& model)
+{
+  return find_omega_kernel(model.law().omega_kernel,
+                           "law " + model.name() + " (" + model.law().source + ")");
+}
+
 OmegaTaylor activation_kernel(const Model& model, double stretch, double level,
                               const EhretParameters& p, double root_tolerance)
 {
-  // the kernels of activation_kernels.cpp, by the name a law file gives
-  // (forms/muscleforms/law.py OMEGA_KERNELS)
-  using Kernel = OmegaTaylor (*)(double, double, const EhretParameters&, double);
-  static const std::map<std::string, Kernel> kernels
-      = {{"wkm", &wkm_omega}, {"giant", &giant_omega}};
-  auto it = kernels.find(model.law().omega_kernel);
-  if (it == kernels.end())
-    throw std::logic_error("law " + model.name() + ": no omega kernel '"
-                           + model.law().omega_kernel + "'");
-  return it->second(stretch, level, p, root_tolerance);
+  // called per quadrature point: the lookup once per law and thread
+  thread_local const forms::LawInfo* law = nullptr;
+  thread_local OmegaKernel kernel = nullptr;
+  if (law != &model.law())
+  {
+    kernel = omega_kernel_of(model);
+    law = &model.law();
+  }
+  return kernel(stretch, level, p, root_tolerance);
 }
 
 namespace

@@ -75,7 +75,11 @@ double activation_level(const ParameterSet& p, double time_factor, double scale)
 /// EhretParameters of a WKM/GIANT/COMBI parameter set.
 EhretParameters ehret_parameters(const ParameterSet& p);
 
-/// The quadrature-point kernel of a model: wkm_omega, giant_omega, or zero.
+/// The quadrature-point kernel a law names (omega_kernels()); InputError naming the
+/// law file, the kernel and the registered ones if it is not registered.
+OmegaKernel omega_kernel_of(const Model& model);
+
+/// omega_a of the law's quadrature-point kernel (omega_kernel_of) at one point.
 OmegaTaylor activation_kernel(const Model& model, double stretch, double level,
                               const EhretParameters& p,
                               double root_tolerance = default_root_tolerance);

@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 namespace muscle
 {
@@ -71,6 +72,26 @@ const std::vector<Model>& all_models()
     return out;
   }();
   return models;
+}
+
+std::vector<Model> models_for(const std::string& role)
+{
+  std::vector<Model> out;
+  for (const forms::LawInfo& law : forms::laws())
+    for (const char* r : law.default_for)
+      if (role == r)
+        out.emplace_back(law.name);
+  return out;
+}
+
+Model default_model(const std::string& role)
+{
+  const std::vector<Model> models = models_for(role);
+  if (models.size() != 1)
+    throw std::logic_error("role '" + role + "': " + std::to_string(models.size())
+                           + " laws declare DEFAULT_FOR it (one expected; "
+                             "forms/muscleforms/law.py ROLES)");
+  return models.front();
 }
 
 std::string to_string(const Model& model)

@@ -32,6 +32,15 @@ private:
 
 /// Every law of the registry, in file-name order.
 const std::vector<Model>& all_models();
+
+/// The law whose file declares itself the default for `role` (DEFAULT_FOR; one law
+/// per role, checked at the configure step): "muscle" (a scene part without a
+/// material, fusiform), "fit" (a fit result before the fit).
+Model default_model(const std::string& role);
+
+/// Every law whose file declares `role` (DEFAULT_FOR), in file-name order: "paper",
+/// the paper's models.
+std::vector<Model> models_for(const std::string& role);
 std::string to_string(const Model& model);
 Model parse_model(const std::string& name);
 

@@ -84,7 +84,8 @@ struct Part
   /// Volume groups of the mesh this part occupies; empty: the whole mesh
   /// (a single part).  Parts must not share a volume and must cover the mesh.
   std::vector<std::string> volumes;
-  ParameterSet parameters{Model("combi")};
+  /// without a material: the law declared DEFAULT_FOR "muscle" (COMBI)
+  ParameterSet parameters{default_model("muscle")};
   bool active = true; ///< false: passive forms only, no activation kernel
   double density = 0; ///< kg/mm^3 (1 g/cm^3 = 1e-6); 0: none given
   FibreSpec fibres;

@@ -170,7 +170,10 @@ int main(int argc, char** argv)
                 shear_spec, kinematics = "exact";
     double noise = 0;
     unsigned seed = 1;
-    app.add_option("--model", model_name, "ble, wkm, giant or combi")->required();
+    std::vector<std::string> laws;
+    for (const Model& m : all_models())
+      laws.push_back(m.name());
+    app.add_option("--model", model_name, "the law: " + join(laws))->required();
     app.add_option("--data", data_files, "CSV files with columns case,state,stretch,stress")
         ->take_all();
     app.add_option("--start", start_file,

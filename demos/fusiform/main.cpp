@@ -34,7 +34,7 @@ namespace
 /// The fusiform scene with the command line's options as its overrides.
 struct Run
 {
-  std::string model = "combi", load = "isometric";
+  std::string model = default_model("muscle").name(), load = "isometric";
   std::vector<std::string> overrides; ///< KEY=VALUE, applied as muscle-run's --set
   RunOptions options;
 };

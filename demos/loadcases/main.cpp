@@ -96,7 +96,14 @@ int main(int argc, char** argv)
     std::vector<std::string> assignments;
     bool no_fe = false, quiet = false;
     CubeOptions fe;
-    app.add_option("--model", model_list, "a law (ble, wkm, giant, combi, svk, ...), a comma list, or all (the paper's four)")
+    std::vector<std::string> laws, paper;
+    for (const Model& m : all_models())
+      laws.push_back(m.name());
+    for (const Model& m : paper_models())
+      paper.push_back(m.name());
+    app.add_option("--model", model_list,
+                   "a law (" + join(laws) + "), a comma list, or all (the paper's: " + join(paper)
+                       + ")")
         ->capture_default_str();
     app.add_option("--case", case_list,
                    "UTCAF, UTCTF, SAF, PSAF, PSTF, PSTIF, a comma list, or all")

@@ -18,6 +18,8 @@ PARAMETERS = [
 ]
 ACTIVATION = TANH_LEVEL
 FIT_PARAMETERS = ["G1", "G2", "P1", "P2", "lambda_opt", "alpha_a", "mu"]
+# the law of a fit result before the fit; one of the paper's four
+DEFAULT_FOR = ("fit", "paper")
 
 
 def energy(kin, p, drive):

@@ -8,6 +8,8 @@ PARAMETERS = EHRET_MATRIX_PARAMETERS + EHRET_ACTIVE_PARAMETERS
 ACTIVATION = TANH_LEVEL
 PASSIVE = "ehret_passive"
 FIT_PARAMETERS = ["alpha", "beta", "gamma", "omega_0", "lambda_opt", "lambda_min", "P_opt"]
+# the muscle of a scene part without a material and of fusiform; one of the paper's four
+DEFAULT_FOR = ("muscle", "paper")
 
 
 def energy(kin, p, drive):

@@ -15,6 +15,8 @@ PARAMETERS = EHRET_MATRIX_PARAMETERS + EHRET_ACTIVE_PARAMETERS
 ACTIVATION = omega_kernel("giant", taylor_order=2)
 PASSIVE = "ehret_passive"
 FIT_PARAMETERS = ["alpha", "beta", "gamma", "omega_0", "lambda_opt", "lambda_min", "N_a"]
+# one of the paper's four (loadcases --model all)
+DEFAULT_FOR = ("paper",)
 
 
 def energy(kin, p, drive):

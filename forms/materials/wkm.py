@@ -8,6 +8,8 @@ PARAMETERS = EHRET_MATRIX_PARAMETERS + EHRET_ACTIVE_PARAMETERS
 ACTIVATION = omega_kernel("wkm", taylor_order=1, stress_holds_omega=True)
 PASSIVE = "ehret_passive"
 FIT_PARAMETERS = ["alpha", "beta", "gamma", "omega_0", "lambda_opt", "lambda_min", "N_a"]
+# one of the paper's four (loadcases --model all)
+DEFAULT_FOR = ("paper",)
 
 
 def energy(kin, p, drive):

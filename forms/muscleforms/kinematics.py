@@ -80,7 +80,9 @@ class Kinematics:
         # only reached for the tensors moved aside in invariant-variable mode
         tensors = self.__dict__.get("_tensors")
         if tensors is None or name not in tensors:
-            raise AttributeError(name)
+            known = sorted(set(self.TENSORS) | {k for k in self.__dict__ if not k.startswith("_")}
+                           - {"variables", "tensor_read"})
+            raise AttributeError(f"the kinematics have no {name!r}; they have {', '.join(known)}")
         self.tensor_read = True
         return tensors[name]
 

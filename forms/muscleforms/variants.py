@@ -21,7 +21,7 @@ from ufl import (Coefficient, Constant, FiniteElement, TensorElement, TestFuncti
 from .activation import TAYLOR_COEFFICIENTS, taylor_omega
 from .invariant_chain import energy_forms
 from .kinematics import Kinematics, fibre_cauchy_stress, von_mises_stress, von_mises_strain
-from .law import Drive
+from .law import Drive, Parameters
 
 CELLS = {"hex": "hexahedron", "tet": "tetrahedron"}
 # quadrature degree per (cell, degree) unless a variant asks for another one
@@ -64,8 +64,9 @@ class _Names:
 
 
 def constants(cell, law, names):
-    """Every parameter as a UFL Constant of its name; FFCx keeps the ones a form uses."""
-    return {n: names.name(Constant(cell), n) for n in law.parameter_names()}
+    """Every parameter as a UFL Constant of its name; FFCx keeps the ones a form uses.
+    Reading an undeclared one raises law.UndeclaredParameter."""
+    return Parameters({n: names.name(Constant(cell), n) for n in law.parameter_names()})
 
 
 def activation_inputs(law, active, ucell, names, taylor_element):
@@ -177,6 +178,15 @@ def build_material_point_variant(law, active):
     names.export((tangent, point), "tangent")
     names.export((kin.fibre_stretch, point), "fibre_stretch")
     return names
+
+
+def check_volumetric_part(law):
+    """The law's volumetric_stiff_part as UFL (no form): errors show before FFCx runs."""
+    ucell = ufl.hexahedron
+    names = _Names()
+    H = variable(Coefficient(TensorElement("DG", ucell, 0)))
+    fibre = Coefficient(VectorElement("DG", ucell, 0))
+    law.volumetric_stiff_part(Kinematics(H, fibre), constants(ucell, law, names))
 
 
 def build_fibre_variant(cell):
