@@ -37,7 +37,7 @@ struct OmegaTaylor
 ///
 /// `root_tolerance`: the root finder stops when its step is below this times
 /// max(1, |z|) (default: round-off; a looser one saves no measurable time,
-/// BENCHMARKS.md).
+/// BENCHMARKS.md, "Root-finding tolerance of the activation kernels").
 OmegaTaylor wkm_omega(double stretch, double level, const EhretParameters& p,
                       double root_tolerance = default_root_tolerance);
 

@@ -9,7 +9,8 @@ Hu-Washizu one on continuous degree-1 fields theta (volume ratio) and p (its mul
 det F_bar = theta.  With theta and p in the same space, theta is the L2 projection of J and
 p that of dpsi/dtheta: the pressure lives on the Q1/P1 nodes, the inf-sup stable Taylor-Hood
 pair, and the element carries one volume constraint per pressure node instead of one per
-quadrature point (plain Q2 locks mildly in bending under kappa = 1000; BENCHMARKS.md).
+quadrature point (plain Q2 locks mildly in bending under kappa = 1000; BENCHMARKS.md,
+"Taylor-Hood (Q2-Q1)").
 
 (theta, p) is one Lagrange degree-1 field of two components, "th_state".  Exported:
 

@@ -31,7 +31,8 @@ DEFAULT_QUADRATURE = {("hex", 1): 2, ("hex", 2): 4, ("tet", 1): 2, ("tet", 2): 4
 # compiled for the laws that give volumetric_stiff_part (BLE: the rest of its energy is
 # isochoric).  The coupled Ehret energies of WKM, GIANT and COMBI soften in volume without
 # their penalty; with it on one point their within-cell volume modes are unstable
-# (Newton stagnates at t = 0.8 ms on the block, 0.6 ms on the fusiform; BENCHMARKS.md).
+# (Newton stagnates within the first millisecond; BENCHMARKS.md, "Q1 with the
+# anti-locking choice (selective reduced integration, BLE only)").
 REDUCED_VOLUMETRIC = {("hex", 1): 1}
 
 
@@ -136,7 +137,7 @@ def build_fe_variant(law, active, cell, degree, qdeg, vqdeg=None):
     else:
         # The volumetric part is a form of its own (C++ runs both kernels per cell):
         # FFCx 0.5 mixes up two rules of one integral -- the full rule's loop reads the
-        # one-point rule's grad(u) and geometry (residual off by 17 % on a 2x2x2 cube).
+        # one-point rule's grad(u) and geometry (a wrong residual on a 2x2x2 cube).
         P_vol = diff(law.volumetric_stiff_part(kin, p), kin.H)
         residual, jacobian = forms(lambda k, q, psi: psi - law.volumetric_stiff_part(k, q),
                                    P - P_vol)
