@@ -25,19 +25,13 @@ DisplacementFormulation::DisplacementFormulation(DisplacementSystem& system,
   const DisplacementConstraint* constraint = _system.constraint();
   _solver = type.matrix(options, {_system.problem().V(), constraint});
   _system.set_reduced_block_size(_solver->reduced_block_size());
+  _x = _system.create_unknowns();
   if (constraint)
   {
-    *_x.out() = constraint->create_reduced_vector();
     // P^T A P needs an assembled A for its symbolic phase
     _system.update_activation();
     _system.assemble_jacobian();
     _system.reduce();
-  }
-  else
-  {
-    // SNES owns its iterate: the line search overwrites trial states in u
-    *_u_petsc.out() = la::petsc::create_vector_wrap(*_system.problem().u()->x());
-    VecDuplicate(_u_petsc, _x.out());
   }
 }
 
@@ -46,24 +40,11 @@ Mat DisplacementFormulation::matrix() const
   return _system.constraint() ? _system.reduced() : _system.A();
 }
 
-void DisplacementFormulation::start()
-{
-  if (const DisplacementConstraint* constraint = _system.constraint())
-    constraint->restrict_to(*_system.problem().u()->x(), _x);
-  else
-    VecCopy(_u_petsc, _x);
-}
+void DisplacementFormulation::start() { _system.get_unknowns(_x); }
 
 KernelStatus DisplacementFormulation::set_state(Vec x)
 {
-  auto u = _system.problem().u();
-  if (const DisplacementConstraint* constraint = _system.constraint())
-    constraint->prolong(x, *u->x());
-  else
-  {
-    VecCopy(x, _u_petsc);
-    u->x()->scatter_fwd();
-  }
+  _system.set_unknowns(x);
   return _system.update_activation();
 }
 

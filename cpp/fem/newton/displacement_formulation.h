@@ -34,8 +34,7 @@ public:
 private:
   DisplacementSystem& _system;
   std::unique_ptr<MatrixSolver> _solver;
-  VecHandle _x;       ///< the SNES iterate (a copy of u's owned part, or reduced)
-  VecHandle _u_petsc; ///< wraps u's owned part (unconstrained)
+  VecHandle _x; ///< the SNES iterate (a copy of u's owned part, or reduced)
 };
 
 } // namespace muscle

@@ -48,6 +48,7 @@ DisplacementSystem::DisplacementSystem(std::vector<MuscleProblem*> parts, Dirich
     *_A.out() = la::petsc::create_matrix(map->comm(), pattern, "aij");
   }
   *_b_petsc.out() = la::petsc::create_vector_wrap(_b);
+  *_u_petsc.out() = la::petsc::create_vector_wrap(*first.u()->x());
   VecCreateMPIWithArray(map->comm(), 1, bs * map->size_local(), PETSC_DETERMINE,
                         _b.mutable_array().data(), _F_full.out());
 }
@@ -131,6 +132,36 @@ void DisplacementSystem::restrict_residual(Vec F) const
     MatMultTranspose(_constraint->T(), _F_full, F);
   else
     VecCopy(_b_petsc, F);
+}
+
+VecHandle DisplacementSystem::create_unknowns() const
+{
+  VecHandle x;
+  if (_constraint)
+    *x.out() = _constraint->create_reduced_vector();
+  else // SNES owns its iterate: the line search tries its states in u
+    VecDuplicate(_u_petsc, x.out());
+  return x;
+}
+
+void DisplacementSystem::get_unknowns(Vec x) const
+{
+  if (_constraint)
+    _constraint->restrict_to(*problem().u()->x(), x);
+  else
+    VecCopy(_u_petsc, x);
+}
+
+void DisplacementSystem::set_unknowns(Vec x)
+{
+  auto u = problem().u()->x();
+  if (_constraint)
+    _constraint->prolong(x, *u);
+  else
+  {
+    VecCopy(x, _u_petsc);
+    u->scatter_fwd();
+  }
 }
 
 void DisplacementSystem::assemble_jacobian()

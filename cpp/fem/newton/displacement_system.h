@@ -56,6 +56,14 @@ public:
   /// F = T^T b or b's owned part: the residual of the unknowns Newton solves for.
   void restrict_residual(Vec F) const;
 
+  /// A vector of the displacement unknowns Newton solves for: u's owned dofs, or
+  /// under the constraint the reduced x.
+  VecHandle create_unknowns() const;
+  /// x = the current u's unknowns.
+  void get_unknowns(Vec x) const;
+  /// u = T x, or x itself (ghosts updated).
+  void set_unknowns(Vec x);
+
   /// A = the displacement tangent: the parts' Jacobians, then close_jacobian().
   void assemble_jacobian();
   /// A (its entries zeroed before the formulation adds the parts' share).
@@ -105,6 +113,7 @@ private:
   MatHandle _A_red;  ///< T^T A T
   MatHandle _ptap;   ///< T^T A T made anew after A gained nonzeros, copied into J
   VecHandle _b_petsc; ///< wraps _b
+  VecHandle _u_petsc; ///< wraps u's owned part
   VecHandle _F_full;  ///< owned part of _b as a plain vector (for T^T b)
   VecHandle _term_F;
   VecHandle _full_tmp; ///< A w of multiply_reduced

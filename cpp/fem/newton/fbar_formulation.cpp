@@ -31,13 +31,7 @@ FbarFormulation::FbarFormulation(DisplacementSystem& system, const NewtonOptions
   refuse_taylor_hood_split_options(false, options.linear_solver);
   const DisplacementConstraint* constraint = _system.constraint();
   MuscleProblem& problem = _system.problem();
-  if (constraint)
-    *_x.out() = constraint->create_reduced_vector();
-  else
-  {
-    *_u_petsc.out() = la::petsc::create_vector_wrap(*problem.u()->x());
-    VecDuplicate(_u_petsc, _x.out());
-  }
+  _x = _system.create_unknowns();
   for (MuscleProblem* part : _system.parts())
   {
     part->hold_fbar_theta(true);
@@ -128,12 +122,8 @@ void FbarFormulation::after_options(KSP ksp)
 void FbarFormulation::start()
 {
   // theta = J0(u), p = r_0: the converged state's own cell unknowns
-  auto u = _system.problem().u()->x();
-  if (const DisplacementConstraint* constraint = _system.constraint())
-    constraint->restrict_to(*u, _x);
-  else
-    VecCopy(_u_petsc, _x);
-  u->scatter_fwd();
+  _system.get_unknowns(_x);
+  _system.problem().u()->x()->scatter_fwd();
   for (auto& cells : _cells)
     cells->initialise();
   PetscScalar* a;
@@ -173,14 +163,7 @@ KernelStatus FbarFormulation::set_state(Vec x_ext)
   for (std::size_t i = 0; i < _cells.size(); ++i)
     _cells[i]->set(b.cells[i]);
   VecRestoreArrayRead(x_ext, &a);
-  auto u = _system.problem().u();
-  if (const DisplacementConstraint* constraint = _system.constraint())
-    constraint->prolong(_tmp, *u->x());
-  else
-  {
-    VecCopy(_tmp, _u_petsc);
-    u->x()->scatter_fwd();
-  }
+  _system.set_unknowns(_tmp);
   return _system.update_activation();
 }
 

@@ -68,7 +68,6 @@ private:
   std::unique_ptr<MatrixSolver> _matrix_solver; ///< or:
   std::unique_ptr<PenaltySplit> _split;
   VecHandle _x;       ///< the displacement part: u's owned dofs, or reduced
-  VecHandle _u_petsc; ///< wraps u's owned part (unconstrained)
   VecHandle _x_ext;   ///< the SNES iterate (u part, then every part's cells)
   MatHandle _J_ext;   ///< the extended Jacobian (shell)
   KSPHandle _inner;   ///< the linear solver of the condensed system

@@ -82,13 +82,7 @@ TaylorHoodFormulation::TaylorHoodFormulation(DisplacementSystem& system,
     refuse_taylor_hood_split_options(true, options.linear_solver);
     _direct = type.matrix(options, space);
   }
-  if (constraint)
-    *_x.out() = constraint->create_reduced_vector();
-  else
-  {
-    *_u_petsc.out() = la::petsc::create_vector_wrap(*problem.u()->x());
-    VecDuplicate(_u_petsc, _x.out());
-  }
+  _x = _system.create_unknowns();
   const MuscleProblem::TaylorHoodForms& f = problem.th_forms();
   auto Q = problem.th_state()->function_space();
   _bq = std::make_unique<la::Vector<double>>(Q->dofmap()->index_map,
@@ -175,14 +169,7 @@ KernelStatus TaylorHoodFormulation::set_state(Vec x)
   std::copy(a, a + n, xu);
   VecRestoreArray(_x, &xu);
   VecRestoreArrayRead(x, &a);
-  auto u = problem.u();
-  if (const DisplacementConstraint* constraint = _system.constraint())
-    constraint->prolong(_x, *u->x());
-  else
-  {
-    VecCopy(_x, _u_petsc);
-    u->x()->scatter_fwd();
-  }
+  _system.set_unknowns(_x);
   return _system.update_activation();
 }
 
@@ -190,10 +177,7 @@ void TaylorHoodFormulation::start()
 {
   MuscleProblem& problem = _system.problem();
   const DisplacementConstraint* constraint = _system.constraint();
-  if (constraint)
-    constraint->restrict_to(*problem.u()->x(), _x);
-  else
-    VecCopy(_u_petsc, _x);
+  _system.get_unknowns(_x);
   PetscInt n;
   VecGetLocalSize(_x, &n);
   PetscScalar* a;

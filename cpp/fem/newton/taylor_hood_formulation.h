@@ -50,7 +50,6 @@ private:
   std::unique_ptr<MatrixSolver> _direct; ///< MUMPS on the assembled copy, or:
   std::unique_ptr<TaylorHoodSplit> _split;
   VecHandle _x;       ///< the displacement part: u's owned dofs, or reduced
-  VecHandle _u_petsc; ///< wraps u's owned part (unconstrained)
   VecHandle _x_ext;   ///< the SNES iterate [u | q]
   VecHandle _tmp;     ///< displacement-part work vector
   std::unique_ptr<dolfinx::la::Vector<double>> _bq; ///< q residual, with ghosts
